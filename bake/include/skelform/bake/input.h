@@ -1,0 +1,54 @@
+// Mesh input: glTF 2.0 (.gltf/.glb), OBJ, PLY (ASCII and binary) and OFF.
+//
+// Every loader validates before it hands data on: out-of-range indices, NaN/Inf positions,
+// empty meshes and non-triangle primitives raise skelform::bake::Error with a one-line message
+// naming the file and the offending element. Degenerate faces, duplicate faces, non-manifold
+// edges, open boundaries and several components are valid input and are kept as they are
+// (welding deals with them).
+#pragma once
+
+#include "skelform/bake/mesh.h"
+
+#include <string>
+#include <vector>
+
+namespace skelform::bake {
+
+// Where a run of original vertices came from.
+struct InputPrimitive {
+  int mesh = -1;            // glTF mesh index; -1 for OBJ/PLY/OFF
+  int primitive = -1;       // glTF primitive index within the mesh; -1 for OBJ/PLY/OFF
+  int node = -1;            // first glTF node instancing the mesh (the skinned node); -1 if none
+  int skin = -1;            // glTF skin of that node; -1 if unskinned
+  uint32_t first_vertex = 0;    // offset of this primitive's vertices in InputMesh::positions
+  uint32_t vertex_count = 0;    // number of vertices of this primitive (glTF POSITION count)
+  uint32_t first_triangle = 0;  // offset of this primitive's triangles in InputMesh::triangles
+  uint32_t triangle_count = 0;
+  bool indexed = false;         // the glTF primitive has an index buffer
+};
+
+// All original vertices of every loaded primitive, concatenated in file order (mesh order,
+// then primitive order). Triangle indices refer to this concatenated array.
+struct InputMesh {
+  std::string source_path;
+  std::vector<Vec3> positions;
+  std::vector<Triangle> triangles;
+  std::vector<InputPrimitive> primitives;
+};
+
+struct LoadOptions {
+  // glTF: also load triangle primitives of meshes no skinned node uses. OBJ/PLY/OFF are
+  // always loaded whole.
+  bool all_meshes = false;
+};
+
+// Loads by file extension (case-insensitive): .gltf, .glb, .obj, .ply, .off.
+// Throws Error on unreadable, malformed or invalid input; never returns an empty mesh.
+InputMesh load_mesh(const std::string& path, const LoadOptions& options = {});
+
+// The same loaders on bytes already in memory; `name` is used in messages and, for .gltf,
+// as the base for resolving external buffer URIs. `extension` selects the format (".obj", ...).
+InputMesh load_mesh_from_memory(const std::vector<unsigned char>& bytes, const std::string& extension,
+                                const std::string& name, const LoadOptions& options = {});
+
+}  // namespace skelform::bake

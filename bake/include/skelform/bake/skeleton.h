@@ -1,0 +1,33 @@
+// Voronoi-based skeletal mesh (paper section 2, DESIGN.md bake step 5).
+#pragma once
+
+#include "skelform/bake/mesh.h"
+
+#include <vector>
+
+namespace skelform::bake {
+
+struct SkeletonOptions {
+  // Inner Voronoi vertices outside the mesh bounding box grown by this fraction of its
+  // diagonal are dropped.
+  double bounding_box_margin = 0.05;
+};
+
+struct SkeletalMesh {
+  // Same connectivity as the input mesh: one skeletal vertex per mesh vertex, and
+  // M = S + d·N at every vertex.
+  std::vector<Vec3> skeletal_positions;  // S
+  std::vector<double> medial_radius;     // d >= 0
+  std::vector<Vec3> normals;             // N: unit outward area-weighted normals of M
+  // Per vertex: how many inner Voronoi vertices were averaged (0 = d came from neighbours).
+  std::vector<uint32_t> voronoi_vertex_count;
+  // The inner Voronoi vertices kept (after the inner/bounding-box/pole filters), each once,
+  // for display (the paper's Fig. 6 left).
+  std::vector<Vec3> kept_voronoi_vertices;
+  size_t vertices_without_candidates = 0;
+};
+
+// Throws Error(invalid_input) when the mesh has fewer than 4 vertices or all are coplanar.
+SkeletalMesh extract_skeleton(const TriangleMesh& mesh, const SkeletonOptions& options = {});
+
+}  // namespace skelform::bake
