@@ -1,0 +1,74 @@
+#!/usr/bin/env bash
+# skelform: set up everything on a fresh Debian 12 machine and run.
+#
+#   ./run.sh                 install missing packages, build, run the main job on the
+#                            project's own procedural character
+#   ./run.sh MODEL           the same main job on your own model (.glb/.gltf/.obj/.ply/.off)
+#   ./run.sh test            install missing packages, build, run the whole test suite,
+#                            then again under AddressSanitizer + UndefinedBehaviorSanitizer
+#
+# Environment: JOBS (parallel build jobs, default: all cores), SKELFORM_DATA_DIR (the
+# third-party models the tests read; default ../shared/data, tests skip when absent).
+set -euo pipefail
+cd "$(dirname "$0")"
+root=$(pwd)
+jobs=${JOBS:-$(nproc)}
+
+apt_packages=(g++ cmake make pkg-config libglm-dev libtinygltf-dev nlohmann-json3-dev libstb-dev libosd-dev
+              libeigen3-dev libqhull-dev doctest-dev libmeshoptimizer-dev libbenchmark-dev)
+
+install_missing_packages() {
+  local missing=() p
+  for p in "${apt_packages[@]}"; do
+    dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
+  done
+  [ ${#missing[@]} -eq 0 ] && return 0
+  local sudo=""
+  [ "$(id -u)" -eq 0 ] || sudo="sudo"
+  echo "==> installing: ${missing[*]}"
+  $sudo apt-get update -qq
+  DEBIAN_FRONTEND=noninteractive $sudo apt-get install -y -qq --no-install-recommends "${missing[@]}"
+}
+
+# build DIR [cmake args...]
+build() {
+  local dir=$1; shift
+  echo "==> building in $dir"
+  cmake -S "$root" -B "$dir" "$@" >/dev/null
+  cmake --build "$dir" -j "$jobs"
+}
+
+run_tests() {
+  build "$root/build" -DCMAKE_BUILD_TYPE=Release
+  echo "==> tests (Release)"
+  ctest --test-dir "$root/build" --output-on-failure -j "$jobs"
+  build "$root/build-asan" -DCMAKE_BUILD_TYPE=RelWithDebInfo -DSKELFORM_SANITIZE=address,undefined \
+        -DSKELFORM_BUILD_BENCH=OFF -DSKELFORM_BUILD_SAMPLES=OFF
+  echo "==> tests (AddressSanitizer + UndefinedBehaviorSanitizer)"
+  ASAN_OPTIONS=detect_leaks=1:abort_on_error=1 UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1 \
+    ctest --test-dir "$root/build-asan" --output-on-failure -j "$jobs"
+}
+
+run_main_job() {
+  build "$root/build" -DCMAKE_BUILD_TYPE=Release
+  mkdir -p "$root/out"
+  local model=${1:-}
+  if [ -z "$model" ]; then
+    echo "==> generating the procedural test character"
+    "$root/build/samples/skelform-character" -o "$root/out/character.obj"
+    model="$root/out/character.obj"
+  fi
+  local name
+  name=$(basename "${model%.*}")
+  echo "==> baking the skeletal mesh of $model"
+  "$root/build/bake/skelform-bake" skeleton "$model" -o "$root/out/$name.skeleton.obj" \
+      --voronoi-points "$root/out/$name.voronoi.obj" -v
+  echo "==> wrote out/$name.skeleton.obj (skeletal mesh) and out/$name.voronoi.obj (inner Voronoi vertices)"
+}
+
+install_missing_packages
+case "${1:-}" in
+  test) run_tests ;;
+  -h|--help) sed -n '2,13p' "$0" ;;
+  *) run_main_job "${1:-}" ;;
+esac
