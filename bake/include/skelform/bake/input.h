@@ -9,6 +9,8 @@
 
 #include "skelform/bake/mesh.h"
 
+#include <array>
+#include <cstdint>
 #include <string>
 #include <vector>
 
@@ -34,6 +36,11 @@ struct InputMesh {
   std::vector<Vec3> positions;
   std::vector<Triangle> triangles;
   std::vector<InputPrimitive> primitives;
+  // glTF skin influences of each original vertex in sets of four (JOINTS_n / WEIGHTS_n, n in
+  // file order); empty for unskinned input. Every set has positions.size() entries; a
+  // primitive with fewer sets than another gets zero weights in the sets it lacks.
+  std::vector<std::vector<std::array<uint16_t, 4>>> joint_sets;
+  std::vector<std::vector<std::array<float, 4>>> weight_sets;
 };
 
 struct LoadOptions {
