@@ -207,3 +207,318 @@ TEST_CASE("input: hand_closed.obj loads 7,993 vertices, 15,982 triangles, quickl
   CHECK(ms < 1000.0);  // unoptimised or instrumented builds: only catch pathological slowness
 #endif
 }
+
+// ---------------------------------------------------------------------------------------
+// glTF
+
+namespace {
+
+std::string base64(const std::vector<unsigned char>& data) {
+  static const char* alphabet = "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
+  std::string out;
+  for (size_t i = 0; i < data.size(); i += 3) {
+    const uint32_t b0 = data[i];
+    const uint32_t b1 = i + 1 < data.size() ? data[i + 1] : 0;
+    const uint32_t b2 = i + 2 < data.size() ? data[i + 2] : 0;
+    const uint32_t triple = b0 << 16 | b1 << 8 | b2;
+    out += alphabet[triple >> 18 & 63];
+    out += alphabet[triple >> 12 & 63];
+    out += i + 1 < data.size() ? alphabet[triple >> 6 & 63] : '=';
+    out += i + 2 < data.size() ? alphabet[triple & 63] : '=';
+  }
+  return out;
+}
+
+template <typename T>
+void append_raw(std::vector<unsigned char>& out, const std::vector<T>& values) {
+  const size_t at = out.size();
+  out.resize(at + values.size() * sizeof(T));
+  if (!values.empty()) std::memcpy(out.data() + at, values.data(), values.size() * sizeof(T));
+  while (out.size() % 4) out.push_back(0);
+}
+
+// A small skinned glTF built from parts, so each test breaks exactly one thing. Buffer 0
+// holds the positions (bufferView 0) then the indices (bufferView 1); accessor 0 is
+// POSITION, accessor 1 the indices.
+struct GltfParts {
+  std::vector<float> positions = {0, 0, 0, 1, 0, 0, 1, 1, 0, 0, 1, 0};
+  std::vector<uint16_t> indices = {0, 1, 2, 0, 2, 3};
+  int mode = 4;
+  bool skinned = true;
+  bool indexed = true;
+  std::string position_accessor = "0";       // the primitive's POSITION value
+  long position_count = -1;                   // -1: positions.size() / 3
+  long position_view_offset = 0;              // bufferView 0 byteOffset
+  std::string extra_accessors;                // appended to the accessors array
+  std::string extra_views;                    // appended to the bufferViews array
+  std::vector<unsigned char> extra_bytes;     // appended to buffer 0 (after the indices)
+  std::string position_accessor_extra;        // extra members of accessor 0, e.g. sparse
+
+  std::vector<unsigned char> buffer(size_t* indices_offset = nullptr, size_t* extra_offset = nullptr) const {
+    std::vector<unsigned char> data;
+    append_raw(data, positions);
+    if (indices_offset) *indices_offset = data.size();
+    append_raw(data, indices);
+    if (extra_offset) *extra_offset = data.size();
+    data.insert(data.end(), extra_bytes.begin(), extra_bytes.end());
+    return data;
+  }
+
+  // `uri` empty: the GLB form, buffer 0 is the BIN chunk.
+  std::string json(const std::string& uri) const {
+    size_t indices_offset = 0;
+    const std::vector<unsigned char> data = buffer(&indices_offset);
+    const long count = position_count >= 0 ? position_count : static_cast<long>(positions.size() / 3);
+    std::string primitive = "{\"attributes\":{\"POSITION\":" + position_accessor + "}";
+    if (indexed) primitive += ",\"indices\":1";
+    primitive += ",\"mode\":" + std::to_string(mode) + "}";
+    std::string j = "{\"asset\":{\"version\":\"2.0\"},\"scene\":0,\"scenes\":[{\"nodes\":[0,1]}],";
+    j += "\"nodes\":[{\"mesh\":0" + std::string(skinned ? ",\"skin\":0" : "") + "},{\"name\":\"joint\"}],";
+    if (skinned) j += "\"skins\":[{\"joints\":[1]}],";
+    j += "\"meshes\":[{\"name\":\"thing\",\"primitives\":[" + primitive + "]}],";
+    j += "\"accessors\":[{\"bufferView\":0,\"componentType\":5126,\"type\":\"VEC3\",\"count\":" +
+         std::to_string(count) + position_accessor_extra + "},";
+    j += "{\"bufferView\":1,\"componentType\":5123,\"type\":\"SCALAR\",\"count\":" + std::to_string(indices.size()) +
+         "}" + extra_accessors + "],";
+    j += "\"bufferViews\":[{\"buffer\":0,\"byteOffset\":" + std::to_string(position_view_offset) +
+         ",\"byteLength\":" + std::to_string(positions.size() * 4) + "},";
+    j += "{\"buffer\":0,\"byteOffset\":" + std::to_string(indices_offset) +
+         ",\"byteLength\":" + std::to_string(indices.size() * 2) + "}" + extra_views + "],";
+    j += "\"buffers\":[{\"byteLength\":" + std::to_string(data.size());
+    if (!uri.empty()) j += ",\"uri\":\"" + uri + "\"";
+    j += "}]}";
+    return j;
+  }
+
+  std::vector<unsigned char> gltf() const {
+    return bytes_of(json("data:application/octet-stream;base64," + base64(buffer())));
+  }
+
+  std::vector<unsigned char> glb() const {
+    std::string json_chunk = json("");
+    while (json_chunk.size() % 4) json_chunk += ' ';
+    std::vector<unsigned char> bin = buffer();
+    while (bin.size() % 4) bin.push_back(0);
+    std::vector<unsigned char> out;
+    auto u32 = [&out](uint32_t v) {
+      for (int i = 0; i < 4; ++i) out.push_back(static_cast<unsigned char>(v >> (8 * i)));
+    };
+    out.insert(out.end(), {'g', 'l', 'T', 'F'});
+    u32(2);
+    u32(static_cast<uint32_t>(12 + 8 + json_chunk.size() + 8 + bin.size()));
+    u32(static_cast<uint32_t>(json_chunk.size()));
+    u32(0x4E4F534A);
+    out.insert(out.end(), json_chunk.begin(), json_chunk.end());
+    u32(static_cast<uint32_t>(bin.size()));
+    u32(0x004E4942);
+    out.insert(out.end(), bin.begin(), bin.end());
+    return out;
+  }
+};
+
+// Checks the welded counts the data README documents and that every original vertex maps
+// to a welded vertex at the very same position.
+void check_model(const std::filesystem::path& path, size_t vertices, size_t welded_vertices, size_t triangles,
+                 bool indexed) {
+  const InputMesh mesh = load_mesh(path.string());
+  CHECK(mesh.positions.size() == vertices);
+  CHECK(mesh.triangles.size() == triangles);
+  REQUIRE(mesh.primitives.size() == 1);
+  const InputPrimitive& p = mesh.primitives[0];
+  CHECK(p.mesh == 0);
+  CHECK(p.primitive == 0);
+  CHECK(p.node >= 0);
+  CHECK(p.skin == 0);
+  CHECK(p.first_vertex == 0);
+  CHECK(p.vertex_count == vertices);
+  CHECK(p.first_triangle == 0);
+  CHECK(p.triangle_count == triangles);
+  CHECK(p.indexed == indexed);
+  const WeldedMesh welded = weld(mesh);
+  CHECK(welded.mesh.positions.size() == welded_vertices);
+  CHECK(welded.mesh.triangles.size() == triangles);
+  REQUIRE(welded.welded_of_original.size() == vertices);
+  size_t mismatched = 0;
+  for (size_t i = 0; i < vertices; ++i)
+    if (welded.mesh.positions[welded.welded_of_original[i]] != mesh.positions[i]) ++mismatched;
+  CHECK(mismatched == 0);
+  // The same bytes from memory give the same mesh.
+  const InputMesh again = load_mesh_from_memory(read_bytes(path), path.extension().string(), path.string());
+  CHECK(again.positions == mesh.positions);
+  CHECK(again.triangles == mesh.triangles);
+}
+
+}  // namespace
+
+TEST_CASE("input: CesiumMan.glb 3273 vertices weld to 2338 with 4672 triangles") {
+  SKELFORM_REQUIRE_DATA(path, "CesiumMan/CesiumMan.glb");
+  check_model(path, 3273, 2338, 4672, true);
+}
+
+TEST_CASE("input: Fox.glb has no index buffer and 1728 vertices weld to 290 with 576 triangles") {
+  SKELFORM_REQUIRE_DATA(path, "Fox/Fox.glb");
+  check_model(path, 1728, 290, 576, false);
+  const InputMesh mesh = load_mesh(path.string());
+  CHECK(mesh.triangles[0] == Triangle{0, 1, 2});
+  CHECK(mesh.triangles[575] == Triangle{1725, 1726, 1727});
+}
+
+TEST_CASE("input: RiggedFigure.glb 370 vertices weld to 130 with 256 triangles") {
+  SKELFORM_REQUIRE_DATA(path, "RiggedFigure/RiggedFigure.glb");
+  check_model(path, 370, 130, 256, true);
+}
+
+TEST_CASE("input: RiggedSimple.glb 160 vertices weld to 96 with 188 triangles") {
+  SKELFORM_REQUIRE_DATA(path, "RiggedSimple/RiggedSimple.glb");
+  check_model(path, 160, 96, 188, true);
+}
+
+TEST_CASE("input: SimpleSkin.gltf with data-URI buffers has 10 vertices and 8 triangles") {
+  SKELFORM_REQUIRE_DATA(path, "SimpleSkin/SimpleSkin.gltf");
+  check_model(path, 10, 10, 8, true);
+}
+
+TEST_CASE("input: a generated skinned glTF loads the same as .gltf (data URI) and .glb") {
+  const GltfParts parts;
+  for (const auto& [bytes, ext] : {std::pair{parts.gltf(), std::string(".gltf")}, std::pair{parts.glb(), std::string(".glb")}}) {
+    CAPTURE(ext);
+    const InputMesh mesh = load_mesh_from_memory(bytes, ext, "generated" + ext);
+    REQUIRE(mesh.positions.size() == 4);
+    CHECK(mesh.positions[2] == Vec3(1, 1, 0));
+    REQUIRE(mesh.triangles.size() == 2);
+    CHECK(mesh.triangles[1] == Triangle{0, 2, 3});
+    REQUIRE(mesh.primitives.size() == 1);
+    CHECK(mesh.primitives[0].node == 0);
+    CHECK(mesh.primitives[0].skin == 0);
+    CHECK(mesh.primitives[0].indexed);
+  }
+}
+
+TEST_CASE("input: glTF TRIANGLE_STRIP and TRIANGLE_FAN become triangles with the glTF winding") {
+  GltfParts strip;
+  strip.positions = {0, 0, 0, 1, 0, 0, 0, 1, 0, 1, 1, 0, 0, 2, 0};
+  strip.indices = {0, 1, 2, 3, 4};
+  strip.mode = 5;
+  const InputMesh s = load_mesh_from_memory(strip.gltf(), ".gltf", "strip.gltf");
+  REQUIRE(s.triangles.size() == 3);
+  CHECK(s.triangles[0] == Triangle{0, 1, 2});
+  CHECK(s.triangles[1] == Triangle{1, 3, 2});
+  CHECK(s.triangles[2] == Triangle{2, 3, 4});
+  GltfParts fan = strip;
+  fan.mode = 6;
+  fan.indexed = false;
+  const InputMesh f = load_mesh_from_memory(fan.gltf(), ".gltf", "fan.gltf");
+  REQUIRE(f.triangles.size() == 3);
+  CHECK(f.triangles[0] == Triangle{1, 2, 0});
+  CHECK(f.triangles[2] == Triangle{3, 4, 0});
+  CHECK_FALSE(f.primitives[0].indexed);
+}
+
+TEST_CASE("input: glTF sparse POSITION accessors are applied") {
+  GltfParts parts;
+  // Sparse: replace vertex 2 by (5, 6, 7). Indices (one UNSIGNED_SHORT) then values.
+  std::vector<unsigned char> extra;
+  append_raw(extra, std::vector<uint16_t>{2});
+  append_raw(extra, std::vector<float>{5, 6, 7});
+  parts.extra_bytes = extra;
+  size_t extra_offset = 0;
+  parts.buffer(nullptr, &extra_offset);
+  parts.extra_views = ",{\"buffer\":0,\"byteOffset\":" + std::to_string(extra_offset) + ",\"byteLength\":2}" +
+                      ",{\"buffer\":0,\"byteOffset\":" + std::to_string(extra_offset + 4) + ",\"byteLength\":12}";
+  parts.position_accessor_extra =
+      ",\"sparse\":{\"count\":1,\"indices\":{\"bufferView\":2,\"componentType\":5123},\"values\":{\"bufferView\":3}}";
+  const InputMesh mesh = load_mesh_from_memory(parts.gltf(), ".gltf", "sparse.gltf");
+  REQUIRE(mesh.positions.size() == 4);
+  CHECK(mesh.positions[1] == Vec3(1, 0, 0));
+  CHECK(mesh.positions[2] == Vec3(5, 6, 7));
+
+  // A sparse index beyond the accessor is refused, not written out of bounds.
+  GltfParts bad = parts;
+  std::vector<unsigned char> bad_extra;
+  append_raw(bad_extra, std::vector<uint16_t>{9});
+  append_raw(bad_extra, std::vector<float>{5, 6, 7});
+  bad.extra_bytes = bad_extra;
+  check_rejected("sparse_index.gltf", bad.gltf(), ErrorKind::invalid_input, "sparse");
+}
+
+TEST_CASE("input: bad glTF files are rejected with a message naming the problem") {
+  GltfParts parts;
+  parts.indices = {0, 1, 7, 0, 2, 3};
+  check_rejected("index_range.gltf", parts.gltf(), ErrorKind::invalid_input, "index 7 at position 2");
+
+  parts = GltfParts();
+  parts.positions[4] = std::nanf("");
+  check_rejected("nan.gltf", parts.gltf(), ErrorKind::invalid_input, "element 1 has a non-finite value");
+
+  parts = GltfParts();
+  parts.positions[6] = -INFINITY;
+  check_rejected("inf.glb", parts.glb(), ErrorKind::invalid_input, "POSITION");
+
+  parts = GltfParts();
+  parts.mode = 1;
+  check_rejected("lines.gltf", parts.gltf(), ErrorKind::unsupported, "mesh 0 ('thing') primitive 0 has mode LINES");
+  parts.mode = 0;
+  check_rejected("points.gltf", parts.gltf(), ErrorKind::unsupported, "mode POINTS");
+
+  parts = GltfParts();
+  parts.position_count = 5;
+  check_rejected("accessor_past_view.gltf", parts.gltf(), ErrorKind::invalid_input, "runs past the end of bufferView 0");
+
+  parts = GltfParts();
+  parts.position_view_offset = 16;  // 48 bytes of positions from 16 overrun the 60-byte buffer
+  check_rejected("view_past_buffer.gltf", parts.gltf(), ErrorKind::invalid_input, "past the end of buffer 0");
+
+  parts = GltfParts();
+  parts.position_accessor = "7";
+  check_rejected("bad_accessor.gltf", parts.gltf(), ErrorKind::invalid_input, "accessor 7 does not exist");
+
+  parts = GltfParts();
+  parts.skinned = false;
+  check_rejected("unskinned.gltf", parts.gltf(), ErrorKind::invalid_input,
+                 "unskinned.gltf (use --all-meshes to bake unskinned meshes)");
+  LoadOptions all;
+  all.all_meshes = true;
+  const InputMesh unskinned = load_mesh_from_memory(parts.gltf(), ".gltf", "unskinned.gltf", all);
+  CHECK(unskinned.triangles.size() == 2);
+  CHECK(unskinned.primitives[0].skin == -1);
+  CHECK(unskinned.primitives[0].node == 0);
+
+  parts = GltfParts();
+  parts.indices = {0, 1, 2, 0, 2};
+  check_rejected("five_indices.gltf", parts.gltf(), ErrorKind::invalid_input, "not a multiple of 3");
+  parts.indexed = false;
+  parts.positions.resize(15, 0.5f);
+  check_rejected("five_vertices.glb", parts.glb(), ErrorKind::invalid_input, "not a multiple of 3");
+
+  check_rejected("garbage.gltf", "{\"asset\": [1, 2", ErrorKind::invalid_input, "garbage.gltf");
+  check_rejected("empty.gltf", "", ErrorKind::invalid_input, "empty.gltf");
+  check_rejected("not_glb.glb", "glTX this is not a binary glTF", ErrorKind::invalid_input, "bad magic");
+}
+
+TEST_CASE("input: a generated .glb cut at every length fails with an Error, never a crash") {
+  const std::vector<unsigned char> whole = GltfParts().glb();
+  REQUIRE_NOTHROW(load_mesh_from_memory(whole, ".glb", "whole.glb"));
+  size_t rejected = 0;
+  for (size_t cut = 0; cut < whole.size(); ++cut) {
+    const std::vector<unsigned char> part(whole.begin(), whole.begin() + static_cast<std::ptrdiff_t>(cut));
+    const Outcome o = outcome_of([&] { load_mesh_from_memory(part, ".glb", "cut.glb"); });
+    if (o.threw_error && o.kind == ErrorKind::invalid_input && contains(o.message, "cut.glb")) ++rejected;
+  }
+  CHECK(rejected == whole.size());
+  check_rejected("truncated.glb", std::vector<unsigned char>(whole.begin(), whole.end() - 4), ErrorKind::invalid_input,
+                 "truncated .glb");
+}
+
+TEST_CASE("input: CesiumMan.glb cut at several lengths fails with an Error, never a crash") {
+  SKELFORM_REQUIRE_DATA(path, "CesiumMan/CesiumMan.glb");
+  const std::vector<unsigned char> whole = read_bytes(path);
+  for (size_t cut : {size_t{0}, size_t{1}, size_t{11}, size_t{12}, size_t{19}, size_t{20}, size_t{100},
+                     size_t{4000}, whole.size() / 2, whole.size() - 100, whole.size() - 1}) {
+    CAPTURE(cut);
+    const std::vector<unsigned char> part(whole.begin(), whole.begin() + static_cast<std::ptrdiff_t>(cut));
+    const Outcome o = outcome_of([&] { load_mesh_from_memory(part, ".glb", "CesiumMan-cut.glb"); });
+    CHECK(o.threw_error);
+    CHECK(o.kind == ErrorKind::invalid_input);
+    CHECK(contains(o.message, "CesiumMan-cut.glb"));
+  }
+}
