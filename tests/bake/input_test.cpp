@@ -522,3 +522,177 @@ TEST_CASE("input: CesiumMan.glb cut at several lengths fails with an Error, neve
     CHECK(contains(o.message, "CesiumMan-cut.glb"));
   }
 }
+
+// ---------------------------------------------------------------------------------------
+// PLY and OFF
+
+namespace {
+
+// A cube with quad faces as PLY: `vertex` with x/y/z of `coordinate` type plus an ignored
+// property, `face` lists of uchar count and `index` type, plus an unrelated element after.
+std::vector<unsigned char> cube_ply(const std::string& format, const std::string& coordinate,
+                                    const std::string& index, size_t truncate_body_by = 0) {
+  const double corners[8][3] = {{0, 0, 0}, {1, 0, 0}, {1, 1, 0}, {0, 1, 0}, {0, 0, 1}, {1, 0, 1}, {1, 1, 1}, {0, 1, 1}};
+  const int quads[6][4] = {{0, 3, 2, 1}, {4, 5, 6, 7}, {0, 1, 5, 4}, {2, 3, 7, 6}, {1, 2, 6, 5}, {0, 4, 7, 3}};
+  std::string header = "ply\r\nformat " + format + " 1.0\ncomment made by the test\nelement vertex 8\n";
+  header += "property " + coordinate + " x\nproperty " + coordinate + " y\nproperty uchar red\nproperty " +
+            coordinate + " z\n";
+  header += "element face 6\nproperty list uchar " + index + " vertex_indices\nproperty float quality\n";
+  header += "element edge 1\nproperty int vertex1\nproperty int vertex2\nend_header\n";
+  std::vector<unsigned char> out = bytes_of(header);
+  if (format == "ascii") {
+    std::string body;
+    for (const auto& c : corners)
+      body += std::to_string(c[0]) + " " + std::to_string(c[1]) + " 255 " + std::to_string(c[2]) + "\n";
+    for (const auto& q : quads)
+      body += "4 " + std::to_string(q[0]) + " " + std::to_string(q[1]) + " " + std::to_string(q[2]) + " " +
+              std::to_string(q[3]) + " 0.5\n";
+    body += "0 1\n";
+    out.insert(out.end(), body.begin(), body.end());
+  } else {
+    const bool big = format == "binary_big_endian";
+    auto put = [&](const void* p, size_t size) {
+      const auto* b = static_cast<const unsigned char*>(p);
+      for (size_t i = 0; i < size; ++i) out.push_back(b[big ? size - 1 - i : i]);
+    };
+    auto put_coordinate = [&](double v) {
+      if (coordinate == "double") put(&v, 8);
+      else {
+        const float f = static_cast<float>(v);
+        put(&f, 4);
+      }
+    };
+    auto put_index = [&](int v) {
+      if (index == "int" || index == "uint") put(&v, 4);
+      else if (index == "ushort" || index == "short") {
+        const uint16_t s = static_cast<uint16_t>(v);
+        put(&s, 2);
+      } else {
+        const uint8_t u = static_cast<uint8_t>(v);
+        put(&u, 1);
+      }
+    };
+    const uint8_t red = 255;
+    const float quality = 0.5f;
+    const int edge[2] = {0, 1};
+    for (const auto& c : corners) {
+      put_coordinate(c[0]);
+      put_coordinate(c[1]);
+      put(&red, 1);
+      put_coordinate(c[2]);
+    }
+    for (const auto& q : quads) {
+      const uint8_t n = 4;
+      put(&n, 1);
+      for (int v : q) put_index(v);
+      put(&quality, 4);
+    }
+    put(&edge[0], 4);
+    put(&edge[1], 4);
+  }
+  out.resize(out.size() - truncate_body_by);
+  return out;
+}
+
+void check_cube(const InputMesh& mesh) {
+  REQUIRE(mesh.positions.size() == 8);
+  CHECK(mesh.positions[6] == Vec3(1, 1, 1));
+  CHECK(mesh.positions[3] == Vec3(0, 1, 0));
+  REQUIRE(mesh.triangles.size() == 12);
+  CHECK(mesh.triangles[0] == Triangle{0, 3, 2});
+  CHECK(mesh.triangles[1] == Triangle{0, 2, 1});
+  CHECK(mesh.triangles[11] == Triangle{0, 7, 3});
+  const WeldedMesh welded = weld(mesh);
+  CHECK(welded.mesh.positions.size() == 8);
+  CHECK(welded.mesh.triangles.size() == 12);
+}
+
+}  // namespace
+
+TEST_CASE("input: PLY in ASCII and both binary byte orders with float or double coordinates and any index type") {
+  for (const std::string format : {"ascii", "binary_little_endian", "binary_big_endian"}) {
+    for (const std::string coordinate : {"float", "double"}) {
+      for (const std::string index : {"int", "uint", "ushort", "uchar"}) {
+        CAPTURE(format);
+        CAPTURE(coordinate);
+        CAPTURE(index);
+        const std::vector<unsigned char> bytes = cube_ply(format, coordinate, index);
+        check_cube(load_mesh_from_memory(bytes, ".ply", "cube.ply"));
+        check_cube(load_mesh(write_scratch("cube.PLY", bytes)));
+      }
+    }
+  }
+  // The face list may also be called vertex_index, and the header may use sized type names.
+  std::string text = "ply\nformat ascii 1.0\nelement vertex 3\nproperty float32 x\nproperty float32 y\n"
+                     "property float32 z\nelement face 1\nproperty list uint8 int32 vertex_index\nend_header\n"
+                     "0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n";
+  CHECK(load_mesh_from_memory(bytes_of(text), ".ply", "named.ply").triangles.size() == 1);
+}
+
+TEST_CASE("input: bad PLY files are rejected with the element and the problem") {
+  const std::vector<unsigned char> whole = cube_ply("binary_little_endian", "float", "int");
+  check_rejected("truncated_body.ply", cube_ply("binary_little_endian", "float", "int", 9), ErrorKind::invalid_input,
+                 "truncated binary body: file ends inside element 'face' 5");
+  check_rejected("truncated_vertices.ply", std::vector<unsigned char>(whole.begin(), whole.end() - 150),
+                 ErrorKind::invalid_input, "truncated binary body: file ends inside element 'vertex'");
+  // Every cut of a binary PLY fails cleanly.
+  size_t rejected = 0;
+  for (size_t cut = 0; cut < whole.size(); ++cut) {
+    const Outcome o = outcome_of([&] {
+      load_mesh_from_memory(std::vector<unsigned char>(whole.begin(), whole.begin() + static_cast<std::ptrdiff_t>(cut)),
+                            ".ply", "cut.ply");
+    });
+    if (o.threw_error && contains(o.message, "cut.ply")) ++rejected;
+  }
+  CHECK(rejected == whole.size());
+
+  const std::string head = "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\n"
+                           "property float z\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n";
+  check_rejected("index_range.ply", head + "0 0 0\n1 0 0\n0 1 0\n3 0 1 3\n", ErrorKind::invalid_input,
+                 "element 'face' 0: vertex index 3 out of range (3 vertices)");
+  check_rejected("negative_index.ply", head + "0 0 0\n1 0 0\n0 1 0\n3 0 -1 2\n", ErrorKind::invalid_input,
+                 "element 'face' 0: bad vertex index");
+  check_rejected("nan.ply", head + "0 0 0\n1 nan 0\n0 1 0\n3 0 1 2\n", ErrorKind::invalid_input,
+                 "element 'vertex' 1: non-finite coordinate");
+  check_rejected("short_ascii.ply", head + "0 0 0\n1 0 0\n0 1\n", ErrorKind::invalid_input, "file ends inside element 'vertex' 2");
+  check_rejected("no_faces.ply", "ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nproperty float y\n"
+                                 "property float z\nend_header\n0 0 0\n", ErrorKind::invalid_input, "no faces");
+  check_rejected("no_end.ply", "ply\nformat ascii 1.0\nelement vertex 1\n", ErrorKind::invalid_input, "no end_header");
+  check_rejected("huge_count.ply", "ply\nformat binary_little_endian 1.0\nelement vertex 4000000000\nproperty float x\n"
+                                   "property float y\nproperty float z\nend_header\n", ErrorKind::invalid_input,
+                 "declares 4000000000 rows");
+  check_rejected("not.ply", "solid cube\nfacet normal 0 0 1\n", ErrorKind::invalid_input, "not a PLY file");
+}
+
+TEST_CASE("input: OFF with comments, a quad, colours and counts on the header line") {
+  const std::string text =
+      "OFF\n# a comment\n\n4 2 0\n0 0 0\n1 0 0  # trailing comment\n1 1 0\n0 1 0\n4 0 1 2 3\n3 0 2 3 255 0 0\n";
+  const InputMesh mesh = load_mesh_from_memory(bytes_of(text), ".off", "quad.off");
+  REQUIRE(mesh.positions.size() == 4);
+  CHECK(mesh.positions[1] == Vec3(1, 0, 0));
+  REQUIRE(mesh.triangles.size() == 3);
+  CHECK(mesh.triangles[1] == Triangle{0, 2, 3});
+  CHECK(mesh.triangles[2] == Triangle{0, 2, 3});
+  const std::string coff = "COFF 3 1 3\n0 0 0 1 0 0 1\n1 0 0 0 1 0 1\n0 1 0 0 0 1 1\n3 0 1 2\n";
+  CHECK(load_mesh(write_scratch("colour.off", bytes_of(coff))).triangles.size() == 1);
+}
+
+TEST_CASE("input: bad OFF files are rejected with the line and the problem") {
+  check_rejected("bad_counts.off", "OFF\n3 x 0\n", ErrorKind::invalid_input, "bad_counts.off:2: bad counts");
+  check_rejected("negative_counts.off", "OFF\n-3 1 0\n", ErrorKind::invalid_input, "bad counts");
+  check_rejected("huge_counts.off", "OFF\n3000000 1 0\n0 0 0\n", ErrorKind::invalid_input, "cannot fit");
+  check_rejected("missing_counts.off", "OFF\n", ErrorKind::invalid_input, "no counts line");
+  check_rejected("few_vertices.off", "OFF\n3 1 0\n0 0 0\n1 0 0\n", ErrorKind::invalid_input,
+                 "3 vertices declared, file ends after 2");
+  check_rejected("few_faces.off", "OFF\n3 2 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n", ErrorKind::invalid_input,
+                 "2 faces declared, file ends after 1");
+  check_rejected("index_range.off", "OFF\n3 1 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1 3\n", ErrorKind::invalid_input,
+                 "index_range.off:6: face 0: vertex index 3 out of range");
+  check_rejected("inf.off", "OFF\n3 1 0\n0 0 0\n1 inf 0\n0 1 0\n3 0 1 2\n", ErrorKind::invalid_input,
+                 "inf.off:4: vertex 1: non-finite");
+  check_rejected("short_face.off", "OFF\n3 1 0\n0 0 0\n1 0 0\n0 1 0\n4 0 1 2\n", ErrorKind::invalid_input,
+                 "4 vertices declared, 3 given");
+  check_rejected("no_faces.off", "OFF\n3 0 0\n0 0 0\n1 0 0\n0 1 0\n", ErrorKind::invalid_input, "no faces");
+  check_rejected("empty.off", "", ErrorKind::invalid_input, "empty file");
+  check_rejected("no_header.off", "3 1 0\n", ErrorKind::invalid_input, "not an OFF file");
+}
