@@ -4,6 +4,9 @@
 
 #include "skelform/bake/mesh.h"
 
+#include <string>
+#include <vector>
+
 namespace skelform::bake {
 
 // Closed capsule along z, centred at the origin: a cylinder of `radius` and length
@@ -30,6 +33,36 @@ struct CharacterOptions {
 // The project's own test character: torso, head, two arms and two legs as smoothly blended
 // tubes; one closed, watertight, outward-oriented genus-0 triangle mesh with elongated parts
 // (what the paper's method favours). Deterministic: the same options give the same mesh.
+// Faces +z, arms in an A-pose, legs apart; its bones are test_character_joints(options).
+// The surface is sampled on a grid of step `resolution`, so the triangle count grows like
+// 1/resolution^2 (about 10,000 triangles at the defaults). Throws Error(usage) for a
+// non-positive height, or a resolution that is not positive, too coarse to resolve the
+// wrists (above height/45) or so fine that the grid would exceed 2^26 samples.
 TriangleMesh make_test_character(const CharacterOptions& options = {});
+
+// One bone of the rig the test character is built from. The character's surface is the
+// smooth union (blend radius test_character_blend_radius) of every bone's tapered capsule:
+// the convex hull of the ball (head, head_radius) and the ball (tail, tail_radius). A later
+// stage can rig the mesh from this list (bind pose = these positions, no rotation).
+// Side suffixes ".L"/".R" are the character's own left/right: it faces +z with y up, so its
+// left is +x. Units are those of CharacterOptions::height.
+struct CharacterJoint {
+  std::string name;     // unique, e.g. "pelvis", "upper_arm.L"
+  int parent;           // index of the parent joint in the list, -1 for the root (index 0);
+                        // a parent always comes before its children
+  Vec3 head;            // where the bone starts: its pivot in the rest pose
+  Vec3 tail;            // where the bone ends (the child's head for chain bones)
+  double head_radius;   // capsule radius at `head` (> 0)
+  double tail_radius;   // capsule radius at `tail` (> 0); the radius varies linearly between
+};
+
+// The rig of make_test_character(options), root first, in this order: pelvis, spine, chest,
+// neck, head, then per side (.L, then .R) shoulder, upper_arm, lower_arm, hand, upper_leg,
+// lower_leg, foot (19 joints). Throws Error(usage) for a non-positive height.
+std::vector<CharacterJoint> test_character_joints(const CharacterOptions& options = {});
+
+// The blend radius of the smooth union of the joints' capsules, in the unit of `height`: how
+// far from a joint the surface of two meeting capsules is rounded.
+double test_character_blend_radius(const CharacterOptions& options = {});
 
 }  // namespace skelform::bake
