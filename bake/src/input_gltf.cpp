@@ -211,8 +211,7 @@ std::vector<double> read_components(const tinygltf::Model& model, int index, con
   // Bounded by the data that can actually be addressed, before any multiplication.
   if (count > std::numeric_limits<uint32_t>::max())
     throw Error(ErrorKind::unsupported, where + " has " + std::to_string(count) + " elements (more than 2^32-1)");
-  std::vector<double> values(count * components, 0.0);
-
+  std::vector<double> values;
   if (accessor.bufferView >= 0) {
     const ByteRange view = view_bytes(model, accessor.bufferView, where);
     const tinygltf::BufferView& view_info = model.bufferViews[static_cast<size_t>(accessor.bufferView)];
@@ -230,12 +229,22 @@ std::vector<double> read_components(const tinygltf::Model& model, int index, con
                          std::to_string(accessor.byteOffset) + " + " + std::to_string(count) + " elements of stride " +
                          std::to_string(stride) + " needs " + std::to_string(last_end) + " bytes, the view has " +
                          std::to_string(view.size) + ")");
+    // Allocated only now that the data is known to exist, so a lying count cannot exhaust memory.
+    values.assign(count * components, 0.0);
     for (size_t i = 0; i < count; ++i) {
       const unsigned char* element = view.data + accessor.byteOffset + i * stride;
       for (size_t c = 0; c < components; ++c)
         values[i * components + c] =
             decode_component(element + c * component_bytes, accessor.componentType, accessor.normalized);
     }
+  } else {
+    // Zeros (plus sparse values): no stored data bounds the count, so cap it at a size no
+    // real skinned mesh reaches rather than attempt an absurd allocation.
+    constexpr size_t kMaxImplicitElements = size_t{1} << 26;
+    if (count > kMaxImplicitElements)
+      throw Error(ErrorKind::unsupported, where + " has no bufferView and declares " + std::to_string(count) +
+                                              " elements (more than 2^26)");
+    values.assign(count * components, 0.0);
   }
 
   if (accessor.sparse.isSparse) {

@@ -696,3 +696,60 @@ TEST_CASE("input: bad OFF files are rejected with the line and the problem") {
   check_rejected("empty.off", "", ErrorKind::invalid_input, "empty file");
   check_rejected("no_header.off", "3 1 0\n", ErrorKind::invalid_input, "not an OFF file");
 }
+
+// ---------------------------------------------------------------------------------------
+// Robustness
+
+TEST_CASE("input: randomly corrupted files of every format load or throw Error and nothing else") {
+  // Digits are the interesting bytes in text formats (counts, offsets, indices): they are
+  // replaced by other digits or by huge numbers; other bytes are flipped at random.
+  uint64_t state = 0x9E3779B97F4A7C15ULL;
+  auto next = [&state]() {
+    state ^= state << 13;
+    state ^= state >> 7;
+    state ^= state << 17;
+    return state;
+  };
+  const std::vector<std::pair<std::string, std::vector<unsigned char>>> originals = {
+      {".glb", GltfParts().glb()},
+      {".gltf", bytes_of(GltfParts().json("data:application/octet-stream;base64," + base64(GltfParts().buffer())))},
+      {".ply", cube_ply("binary_big_endian", "float", "ushort")},
+      {".ply", cube_ply("ascii", "double", "int")},
+      {".off", bytes_of("OFF\n4 2 0\n0 0 0\n1 0 0\n1 1 0\n0 1 0\n4 0 1 2 3\n3 0 2 3\n")},
+      {".obj", bytes_of("v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nf 1/1 2/2 3/3 4/4\nf -4 -2 -1\n")},
+  };
+  size_t loaded = 0;
+  size_t rejected = 0;
+  size_t other_exceptions = 0;
+  for (const auto& [ext, original] : originals) {
+    for (int round = 0; round < 300; ++round) {
+      std::vector<unsigned char> bytes = original;
+      const int edits = 1 + static_cast<int>(next() % 4);
+      for (int e = 0; e < edits; ++e) {
+        const size_t at = next() % bytes.size();
+        if (bytes[at] >= '0' && bytes[at] <= '9') {
+          if (next() % 4 == 0) {
+            const std::string huge = std::to_string(next() % 5000000000ULL);
+            bytes.insert(bytes.begin() + static_cast<std::ptrdiff_t>(at), huge.begin(), huge.end());
+          } else {
+            bytes[at] = static_cast<unsigned char>('0' + next() % 10);
+          }
+        } else if (next() % 3 == 0) {
+          bytes[at] = static_cast<unsigned char>(next());
+        }
+      }
+      try {
+        load_mesh_from_memory(bytes, ext, "corrupt" + ext);
+        ++loaded;
+      } catch (const Error&) {
+        ++rejected;
+      } catch (const std::exception& e) {
+        ++other_exceptions;
+        MESSAGE(ext << " round " << round << " threw a non-Error exception: " << e.what());
+      }
+    }
+  }
+  MESSAGE(loaded << " corrupted files loaded, " << rejected << " rejected");
+  CHECK(other_exceptions == 0);
+  CHECK(rejected > 0);
+}
