@@ -18,7 +18,6 @@
 #include <glm/geometric.hpp>
 
 #include <algorithm>
-#include <chrono>
 #include <cmath>
 
 using namespace skelform::bake;
@@ -302,36 +301,19 @@ TEST_CASE("DSS binding refuses invalid input with Error") {
   CHECK(empty.max_rest_error == 0.0);
 }
 
-TEST_CASE("DSS binding throughput: ~100K dense vertices against ~330K refined triangles") {
-#if defined(NDEBUG) && !defined(__SANITIZE_ADDRESS__)
-  const TriangleMesh control_sphere = make_icosphere(1.0, 3);  // 1,280 triangles -> level 4: 327,680
-  TriangleMesh dense = make_uv_sphere(1.0, 400, 250);          // 99,602 vertices
-#else
-  // Debug and sanitizer builds run the same path a sixteenth of the size.
+TEST_CASE("DSS binding at level 4 reproduces a dense bumpy sphere at rest") {
+  // Speed is measured in bench/ (skelform-bench-bake), not here.
   const TriangleMesh control_sphere = make_icosphere(1.0, 1);
   TriangleMesh dense = make_uv_sphere(1.0, 100, 62);
-#endif
   TriangleMesh control = control_sphere;
   control.positions = bumpy_positions(control_sphere);
   dense.positions = bumpy_positions(dense);
-  const auto start = std::chrono::steady_clock::now();
   const Refined refined = refine(control, 4);
-  const auto refined_at = std::chrono::steady_clock::now();
   const double diagonal = bounds_of(dense.positions).diagonal();
   const DssBinding binding =
       bind_dense_vertices(refined.positions, refined.stencils.refined_triangles, dense.positions, diagonal);
-  const auto end = std::chrono::steady_clock::now();
-  const double refine_seconds = std::chrono::duration<double>(refined_at - start).count();
-  const double bind_seconds = std::chrono::duration<double>(end - refined_at).count();
-  MESSAGE("stencils + apply for " << refined.stencils.refined_triangles.size() << " refined triangles: "
-                                  << refine_seconds << " s; binding " << dense.positions.size() << " vertices: "
-                                  << bind_seconds << " s (" << dense.positions.size() / bind_seconds
-                                  << " vertices/s); rest error " << binding.max_rest_error << ", residual vertices "
-                                  << binding.residual_vertices);
+  MESSAGE("rest error " << binding.max_rest_error << ", residual vertices " << binding.residual_vertices);
   CHECK(binding.max_rest_error <= 1e-5);
-#if defined(NDEBUG) && !defined(__SANITIZE_ADDRESS__)
-  CHECK(bind_seconds < 3.0);
-#endif
 }
 
 TEST_CASE("DSS binding of CesiumMan's original vertices to its decimated, subdivided control mesh") {
