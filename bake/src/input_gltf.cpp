@@ -8,6 +8,7 @@
 #include <tiny_gltf.h>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstring>
 #include <limits>
@@ -462,6 +463,62 @@ std::vector<Triangle> triangulate(int mode, const std::vector<uint32_t>& corner,
 
 }  // namespace
 
+// Appends the JOINTS_n/WEIGHTS_n sets of one skinned primitive to mesh.joint_sets and
+// weight_sets, keeping every set as long as mesh.positions (the new primitive's vertices
+// are already appended). Sets this primitive lacks, or earlier primitives lacked, hold zero
+// weights. Weights are renormalised to sum to 1 over all sets (glTF requires the sum to be
+// 1; exporters round); a vertex whose weights are all zero is refused.
+void append_skin_influences(const tinygltf::Model& model, const tinygltf::Primitive& primitive, size_t joint_count,
+                            size_t vertex_count, const std::string& what, InputMesh& mesh) {
+  const size_t total = mesh.positions.size();
+  const size_t first = total - vertex_count;
+  for (size_t set = 0;; ++set) {
+    const auto joints = primitive.attributes.find("JOINTS_" + std::to_string(set));
+    const auto weights = primitive.attributes.find("WEIGHTS_" + std::to_string(set));
+    if (joints == primitive.attributes.end() && weights == primitive.attributes.end()) {
+      if (set == 0) gltf::invalid(what, "belongs to a skinned node but has no JOINTS_0/WEIGHTS_0");
+      break;
+    }
+    const std::string set_name = std::to_string(set);
+    if (joints == primitive.attributes.end()) gltf::invalid(what, "has WEIGHTS_" + set_name + " without JOINTS_" + set_name);
+    if (weights == primitive.attributes.end()) gltf::invalid(what, "has JOINTS_" + set_name + " without WEIGHTS_" + set_name);
+    const std::vector<glm::uvec4> joint_values = gltf::read_joints(model, joints->second, what + " JOINTS_" + set_name);
+    const std::vector<glm::dvec4> weight_values = gltf::read_weights(model, weights->second, what + " WEIGHTS_" + set_name);
+    if (joint_values.size() != vertex_count || weight_values.size() != vertex_count)
+      gltf::invalid(what, "JOINTS_" + set_name + "/WEIGHTS_" + set_name + " count differs from POSITION count");
+    if (set >= mesh.joint_sets.size()) {
+      mesh.joint_sets.emplace_back(first, std::array<uint16_t, 4>{0, 0, 0, 0});
+      mesh.weight_sets.emplace_back(first, std::array<float, 4>{0, 0, 0, 0});
+    }
+    for (size_t v = 0; v < vertex_count; ++v) {
+      std::array<uint16_t, 4> j{};
+      std::array<float, 4> w{};
+      for (int k = 0; k < 4; ++k) {
+        // A zero weight may name any joint; only influencing joints must exist in the skin.
+        if (weight_values[v][k] > 0 && joint_values[v][k] >= joint_count)
+          gltf::invalid(what, "vertex " + std::to_string(v) + " JOINTS_" + set_name + " names joint " +
+                                  std::to_string(joint_values[v][k]) + " but the skin has " + std::to_string(joint_count));
+        j[static_cast<size_t>(k)] = weight_values[v][k] > 0 ? static_cast<uint16_t>(joint_values[v][k]) : 0;
+        w[static_cast<size_t>(k)] = static_cast<float>(weight_values[v][k]);
+      }
+      mesh.joint_sets[set].push_back(j);
+      mesh.weight_sets[set].push_back(w);
+    }
+  }
+  for (size_t set = 0; set < mesh.joint_sets.size(); ++set) {
+    mesh.joint_sets[set].resize(total, std::array<uint16_t, 4>{0, 0, 0, 0});
+    mesh.weight_sets[set].resize(total, std::array<float, 4>{0, 0, 0, 0});
+  }
+  for (size_t v = first; v < total; ++v) {
+    double sum = 0;
+    for (const auto& set : mesh.weight_sets)
+      for (float w : set[v]) sum += w;
+    if (!(sum > 0)) gltf::invalid(what, "vertex " + std::to_string(v - first) + " has no skin weight");
+    for (auto& set : mesh.weight_sets)
+      for (float& w : set[v]) w = static_cast<float>(w / sum);
+  }
+}
+
 InputMesh load_gltf(const std::vector<unsigned char>& bytes, bool binary, const std::string& name,
                     const LoadOptions& options) {
   tinygltf::Model model;
@@ -532,6 +589,8 @@ InputMesh load_gltf(const std::vector<unsigned char>& bytes, bool binary, const 
       mesh.positions.insert(mesh.positions.end(), positions.begin(), positions.end());
       mesh.triangles.insert(mesh.triangles.end(), triangles.begin(), triangles.end());
       mesh.primitives.push_back(record);
+      if (skin >= 0) append_skin_influences(model, primitive, model.skins[static_cast<size_t>(skin)].joints.size(),
+                                            positions.size(), what, mesh);
     }
   }
 

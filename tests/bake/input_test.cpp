@@ -9,7 +9,6 @@
 #include <doctest/doctest.h>
 #include <tiny_gltf.h>
 
-#include <chrono>
 #include <cmath>
 #include <cstring>
 #include <fstream>
@@ -192,22 +191,15 @@ TEST_CASE("input: bunny.obj (f v//vn) loads 3,301 vertices, 6,598 triangles") {
   CHECK(welded.mesh.triangles == mesh.triangles);
 }
 
-TEST_CASE("input: hand_closed.obj loads 7,993 vertices, 15,982 triangles, quickly") {
+TEST_CASE("input: hand_closed.obj loads 7,993 vertices, 15,982 triangles") {
+  // Load speed is measured in bench/ (skelform-bench-bake), not asserted here.
   SKELFORM_REQUIRE_DATA(path, "hand/hand_closed.obj");
-  const auto start = std::chrono::steady_clock::now();
   const InputMesh mesh = load_mesh(path.string());
-  const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
-  MESSAGE("hand_closed.obj loaded in " << ms << " ms");
   CHECK(mesh.positions.size() == 7993);
   CHECK(mesh.triangles.size() == 15982);
   const WeldedMesh welded = weld(mesh);
   CHECK(welded.mesh.positions.size() == 7993);
   CHECK(welded.mesh.triangles.size() == 15982);
-#if defined(NDEBUG) && !defined(__SANITIZE_ADDRESS__)
-  CHECK(ms < 50.0);
-#else
-  CHECK(ms < 1000.0);  // unoptimised or instrumented builds: only catch pathological slowness
-#endif
 }
 
 // ---------------------------------------------------------------------------------------
@@ -838,4 +830,36 @@ TEST_CASE("input: gltf_access reads interleaved joints, normalized weights and m
   const Outcome past_end = outcome_of([&] { gltf::read_joints(model, 0, "test JOINTS_0"); });
   CHECK(past_end.threw_error);
   CHECK(contains(past_end.message, "runs past the end of bufferView 0"));
+}
+
+TEST_CASE("input: skin influences of every skinned model are read, in range and normalised") {
+  for (const auto& [name, joint_count] : std::vector<std::pair<const char*, size_t>>{
+           {"CesiumMan/CesiumMan.glb", 19}, {"Fox/Fox.glb", 24}, {"RiggedFigure/RiggedFigure.glb", 19},
+           {"RiggedSimple/RiggedSimple.glb", 2}, {"SimpleSkin/SimpleSkin.gltf", 2}}) {
+    SKELFORM_REQUIRE_DATA(path, name);
+    CAPTURE(name);
+    const InputMesh mesh = load_mesh(path.string());
+    REQUIRE(mesh.joint_sets.size() == 1);  // none of the sample files has JOINTS_1
+    REQUIRE(mesh.weight_sets.size() == 1);
+    REQUIRE(mesh.joint_sets[0].size() == mesh.positions.size());
+    for (size_t v = 0; v < mesh.positions.size(); ++v) {
+      float sum = 0;
+      for (int k = 0; k < 4; ++k) {
+        sum += mesh.weight_sets[0][v][k];
+        CHECK(mesh.joint_sets[0][v][k] < joint_count);
+      }
+      CHECK(sum == doctest::Approx(1.0f).epsilon(1e-5));
+    }
+  }
+}
+
+TEST_CASE("input: OBJ, PLY and OFF carry no skin influences") {
+  const std::filesystem::path file = skelform::test::scratch_dir("input_noskin") / "tri.obj";
+  {
+    std::ofstream out(file);
+    out << "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n";
+  }
+  const InputMesh mesh = load_mesh(file.string());
+  CHECK(mesh.joint_sets.empty());
+  CHECK(mesh.weight_sets.empty());
 }
