@@ -132,9 +132,13 @@ Delaunay delaunay_cells(const std::vector<Vec3>& points) {
       result.cells.push_back(cell);
     }
   } catch (const orgQhull::QhullError& error) {
-    std::string message = error.what();
-    const size_t line_end = message.find('\n');
-    if (line_end != std::string::npos) message.resize(line_end);
+    // what() holds only the code ("QH6154"); the sentence is the line of Qhull's log that
+    // starts with that code (warnings may come before it).
+    const std::string code = error.what();
+    const std::string log = qhull_messages.str();
+    std::string message = code;
+    const size_t line_start = code.empty() ? std::string::npos : log.find(code);
+    if (line_start != std::string::npos) message = log.substr(line_start, log.find('\n', line_start) - line_start);
     throw Error(ErrorKind::invalid_input, "skeleton: Delaunay tetrahedralization failed (Qhull): " + message);
   }
   return result;
@@ -189,13 +193,22 @@ SkeletalMesh extract_skeleton(const TriangleMesh& mesh, const SkeletonOptions& o
     for (uint32_t corner : t)
       if (corner >= vertex_count) throw Error(ErrorKind::invalid_input, "skeleton: triangle index out of range");
 
+  // The Voronoi diagram is of the surface's vertices: a vertex no triangle uses (welding
+  // keeps them) would carve the cells of its neighbours, so it stays out of Qhull and ends up
+  // without candidates (and without a normal: S = M).
+  std::vector<bool> referenced(vertex_count, false);
+  for (const Triangle& t : mesh.triangles)
+    for (uint32_t corner : t) referenced[corner] = true;
+
   // Qhull does not keep exactly coincident points as Delaunay vertices; feed it each position
   // once and let the copies share the result, so every mesh vertex maps to a Qhull point id.
-  std::vector<uint32_t> unique_of_vertex(vertex_count);
+  constexpr uint32_t kNotInDiagram = ~0u;
+  std::vector<uint32_t> unique_of_vertex(vertex_count, kNotInDiagram);
   std::vector<Vec3> unique_points;
   {
     std::map<std::tuple<double, double, double>, uint32_t> index_of_position;
     for (uint32_t v = 0; v < vertex_count; ++v) {
+      if (!referenced[v]) continue;
       const Vec3& p = mesh.positions[v];
       // +0.0 and -0.0 compare equal as doubles, so they are one key.
       const auto [it, inserted] =
@@ -205,7 +218,7 @@ SkeletalMesh extract_skeleton(const TriangleMesh& mesh, const SkeletonOptions& o
     }
   }
   if (unique_points.size() < 4)
-    throw Error(ErrorKind::invalid_input, "skeleton: the mesh needs at least 4 distinct vertices, it has " +
+    throw Error(ErrorKind::invalid_input, "skeleton: the mesh needs at least 4 distinct triangle vertices, it has " +
                                               std::to_string(unique_points.size()));
   {
     // Coplanar input has no tetrahedra; say so plainly instead of relaying Qhull's message.
@@ -230,7 +243,7 @@ SkeletalMesh extract_skeleton(const TriangleMesh& mesh, const SkeletonOptions& o
       for (const Vec3& p : unique_points) max_offset = std::max(max_offset, std::abs(glm::dot(p - origin, unit_normal)));
     }
     if (!(max_offset > 1e-12 * scale))
-      throw Error(ErrorKind::invalid_input, "skeleton: all mesh vertices are coplanar (no enclosed volume)");
+      throw Error(ErrorKind::invalid_input, "skeleton: all triangle vertices are coplanar (no enclosed volume)");
   }
 
   const Delaunay delaunay = delaunay_cells(unique_points);
@@ -253,12 +266,14 @@ SkeletalMesh extract_skeleton(const TriangleMesh& mesh, const SkeletonOptions& o
 
   // Mesh vertices per unique point (usually one).
   std::vector<uint32_t> vertex_offsets(unique_points.size() + 1, 0);
-  for (uint32_t v = 0; v < vertex_count; ++v) ++vertex_offsets[unique_of_vertex[v] + 1];
+  for (uint32_t v = 0; v < vertex_count; ++v)
+    if (unique_of_vertex[v] != kNotInDiagram) ++vertex_offsets[unique_of_vertex[v] + 1];
   for (size_t u = 0; u < unique_points.size(); ++u) vertex_offsets[u + 1] += vertex_offsets[u];
-  std::vector<uint32_t> vertices_of_unique(vertex_count);
+  std::vector<uint32_t> vertices_of_unique(vertex_offsets.back());
   {
     std::vector<uint32_t> fill(vertex_offsets.begin(), vertex_offsets.end() - 1);
-    for (uint32_t v = 0; v < vertex_count; ++v) vertices_of_unique[fill[unique_of_vertex[v]]++] = v;
+    for (uint32_t v = 0; v < vertex_count; ++v)
+      if (unique_of_vertex[v] != kNotInDiagram) vertices_of_unique[fill[unique_of_vertex[v]]++] = v;
   }
 
   // Each cell's circumcentre is a Voronoi vertex of the cell of each of its corners.

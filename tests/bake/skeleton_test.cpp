@@ -177,6 +177,19 @@ TEST_CASE("skeleton: duplicate vertices, degenerate triangles and an isolated ve
   CHECK(skeleton.voronoi_vertex_count.back() == 0);
 }
 
+TEST_CASE("skeleton: a vertex no triangle uses does not change the skeleton of the others") {
+  const TriangleMesh capsule = make_capsule(1.0, 4.0, 24, 12, 6);
+  TriangleMesh with_stray = capsule;
+  with_stray.positions.push_back({0.2, 0.1, 0.3});  // inside, where it would carve Voronoi cells
+  const SkeletalMesh reference = extract_skeleton(capsule);
+  const SkeletalMesh skeleton = extract_skeleton(with_stray);
+  for (size_t v = 0; v < capsule.positions.size(); ++v) {
+    CHECK(skeleton.skeletal_positions[v] == reference.skeletal_positions[v]);
+    CHECK(skeleton.medial_radius[v] == reference.medial_radius[v]);
+  }
+  CHECK(skeleton.skeletal_positions.back() == with_stray.positions.back());
+}
+
 TEST_CASE("skeleton: vertices without candidates get d from their neighbours; a component without any keeps d = 0") {
   // The dome z > 0.4 of a jittered sphere, cut off from the rest: the bounding box
   // (margin 0) excludes the region around the sphere's centre, so only some vertices keep

@@ -27,7 +27,16 @@ struct SkeletalMesh {
   size_t vertices_without_candidates = 0;
 };
 
-// Throws Error(invalid_input) when the mesh has fewer than 4 vertices or all are coplanar.
+// Throws Error(invalid_input) when the mesh has fewer than 4 distinct vertices used by
+// triangles, when those are all coplanar, when a position is not finite or an index is out of
+// range, and when Qhull fails (its message in the Error; Qhull never prints).
+// Rules beyond the paper: the mesh must be outward-oriented (N is the outward normal and
+// candidates are taken on its negative side). A vertex whose only inner Voronoi vertex is its
+// pole keeps it (exactly cospherical input, e.g. a sphere, has one merged Delaunay cell whose
+// circumcentre is the centre). A vertex with no candidate gets d as the mean over the one-ring
+// neighbours that have a d, spreading front by front; in a connected component where no
+// vertex has a candidate, d = 0 (S = M). Vertices no triangle uses stay out of the Voronoi
+// diagram and have N = 0, so S = M; exactly coincident vertices share one Voronoi cell.
 SkeletalMesh extract_skeleton(const TriangleMesh& mesh, const SkeletonOptions& options = {});
 
 }  // namespace skelform::bake
