@@ -248,22 +248,53 @@ struct GltfParts {
   std::vector<unsigned char> extra_bytes;     // appended to buffer 0 (after the indices)
   std::string position_accessor_extra;        // extra members of accessor 0, e.g. sparse
 
-  std::vector<unsigned char> buffer(size_t* indices_offset = nullptr, size_t* extra_offset = nullptr) const {
+  // A skinned node's primitives need JOINTS_0/WEIGHTS_0: every vertex fully on joint 0.
+  // They go after everything else so the tests' extra accessor/view indices stay 2, 3, ...
+  std::vector<unsigned char> buffer(size_t* indices_offset = nullptr, size_t* extra_offset = nullptr,
+                                    size_t* skin_offset = nullptr) const {
     std::vector<unsigned char> data;
     append_raw(data, positions);
     if (indices_offset) *indices_offset = data.size();
     append_raw(data, indices);
     if (extra_offset) *extra_offset = data.size();
     data.insert(data.end(), extra_bytes.begin(), extra_bytes.end());
+    while (data.size() % 4) data.push_back(0);
+    if (skin_offset) *skin_offset = data.size();
+    if (skinned) {
+      const size_t vertices = positions.size() / 3;
+      append_raw(data, std::vector<uint16_t>(vertices * 4, 0));
+      std::vector<float> weights(vertices * 4, 0.0f);
+      for (size_t v = 0; v < vertices; ++v) weights[4 * v] = 1.0f;
+      append_raw(data, weights);
+    }
     return data;
+  }
+
+  static size_t occurrences(const std::string& text, const std::string& what) {
+    size_t count = 0;
+    for (size_t at = text.find(what); at != std::string::npos; at = text.find(what, at + 1)) ++count;
+    return count;
   }
 
   // `uri` empty: the GLB form, buffer 0 is the BIN chunk.
   std::string json(const std::string& uri) const {
-    size_t indices_offset = 0;
-    const std::vector<unsigned char> data = buffer(&indices_offset);
+    size_t indices_offset = 0, skin_offset = 0;
+    const std::vector<unsigned char> data = buffer(&indices_offset, nullptr, &skin_offset);
     const long count = position_count >= 0 ? position_count : static_cast<long>(positions.size() / 3);
-    std::string primitive = "{\"attributes\":{\"POSITION\":" + position_accessor + "}";
+    const size_t vertices = positions.size() / 3;
+    const size_t skin_accessor = 2 + occurrences(extra_accessors, "\"componentType\"");
+    const size_t skin_view = 2 + occurrences(extra_views, "\"buffer\"");
+    std::string skin_attributes, skin_accessors, skin_views;
+    if (skinned) {
+      skin_attributes = ",\"JOINTS_0\":" + std::to_string(skin_accessor) + ",\"WEIGHTS_0\":" + std::to_string(skin_accessor + 1);
+      skin_accessors = ",{\"bufferView\":" + std::to_string(skin_view) + ",\"componentType\":5123,\"type\":\"VEC4\",\"count\":" +
+                       std::to_string(vertices) + "},{\"bufferView\":" + std::to_string(skin_view + 1) +
+                       ",\"componentType\":5126,\"type\":\"VEC4\",\"count\":" + std::to_string(vertices) + "}";
+      skin_views = ",{\"buffer\":0,\"byteOffset\":" + std::to_string(skin_offset) + ",\"byteLength\":" +
+                   std::to_string(vertices * 8) + "},{\"buffer\":0,\"byteOffset\":" + std::to_string(skin_offset + vertices * 8) +
+                   ",\"byteLength\":" + std::to_string(vertices * 16) + "}";
+    }
+    std::string primitive = "{\"attributes\":{\"POSITION\":" + position_accessor + skin_attributes + "}";
     if (indexed) primitive += ",\"indices\":1";
     primitive += ",\"mode\":" + std::to_string(mode) + "}";
     std::string j = "{\"asset\":{\"version\":\"2.0\"},\"scene\":0,\"scenes\":[{\"nodes\":[0,1]}],";
@@ -273,11 +304,11 @@ struct GltfParts {
     j += "\"accessors\":[{\"bufferView\":0,\"componentType\":5126,\"type\":\"VEC3\",\"count\":" +
          std::to_string(count) + position_accessor_extra + "},";
     j += "{\"bufferView\":1,\"componentType\":5123,\"type\":\"SCALAR\",\"count\":" + std::to_string(indices.size()) +
-         "}" + extra_accessors + "],";
+         "}" + extra_accessors + skin_accessors + "],";
     j += "\"bufferViews\":[{\"buffer\":0,\"byteOffset\":" + std::to_string(position_view_offset) +
          ",\"byteLength\":" + std::to_string(positions.size() * 4) + "},";
     j += "{\"buffer\":0,\"byteOffset\":" + std::to_string(indices_offset) +
-         ",\"byteLength\":" + std::to_string(indices.size() * 2) + "}" + extra_views + "],";
+         ",\"byteLength\":" + std::to_string(indices.size() * 2) + "}" + extra_views + skin_views + "],";
     j += "\"buffers\":[{\"byteLength\":" + std::to_string(data.size());
     if (!uri.empty()) j += ",\"uri\":\"" + uri + "\"";
     j += "}]}";
@@ -459,7 +490,8 @@ TEST_CASE("input: bad glTF files are rejected with a message naming the problem"
   check_rejected("accessor_past_view.gltf", parts.gltf(), ErrorKind::invalid_input, "runs past the end of bufferView 0");
 
   parts = GltfParts();
-  parts.position_view_offset = 16;  // 48 bytes of positions from 16 overrun the 60-byte buffer
+  // 48 bytes of positions starting 16 bytes before the end overrun the buffer.
+  parts.position_view_offset = static_cast<long>(parts.buffer().size()) - 16;
   check_rejected("view_past_buffer.gltf", parts.gltf(), ErrorKind::invalid_input, "past the end of buffer 0");
 
   parts = GltfParts();
