@@ -30,6 +30,21 @@ install_missing_packages() {
   DEBIAN_FRONTEND=noninteractive $sudo apt-get install -y -qq --no-install-recommends "${missing[@]}"
 }
 
+# The Khronos glTF-Validator (npm, pinned in tools/package-lock.json) checks every baked file.
+install_validator() {
+  if ! command -v node >/dev/null 2>&1 || ! command -v npm >/dev/null 2>&1; then
+    local sudo=""
+    [ "$(id -u)" -eq 0 ] || sudo="sudo"
+    echo "==> installing: nodejs npm"
+    $sudo apt-get update -qq
+    DEBIAN_FRONTEND=noninteractive $sudo apt-get install -y -qq --no-install-recommends nodejs npm
+  fi
+  if [ ! -d "$root/tools/node_modules/gltf-validator" ]; then
+    echo "==> npm ci (tools/: gltf-validator)"
+    (cd "$root/tools" && npm ci --no-audit --no-fund --loglevel=error)
+  fi
+}
+
 # build DIR [cmake args...]
 build() {
   local dir=$1; shift
@@ -39,6 +54,7 @@ build() {
 }
 
 run_tests() {
+  install_validator
   build "$root/build" -DCMAKE_BUILD_TYPE=Release
   echo "==> tests (Release)"
   ctest --test-dir "$root/build" --output-on-failure -j "$jobs"
