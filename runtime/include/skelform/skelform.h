@@ -1,15 +1,34 @@
 /* skelform — skeleton-driven mesh deformation runtime, public C API.
  *
- * This header is plain C99 and C++ compatible. It is the runtime's manual: every function is
- * documented where it is declared.
+ * skelform deforms a skinned mesh through its Voronoi-based skeletal mesh (Yoshizawa,
+ * Belyaev, Seidel 2003): the skeletal mesh S is posed by the glTF skin (or moved by free-form
+ * handles), the coarse control mesh is reconstructed from it (M = S + d·N, paper eqs. (1)-(3)),
+ * faired (paper eqs. (4), (5)), Loop-refined with baked stencils, and every original vertex is
+ * placed from its displaced-subdivision binding. Assets are glTF files baked by
+ * `skelform-bake` (extension SKELFORM_skeletal_deformation, docs/).
  *
- * Conventions (stated once for the whole API):
- * - Units are those of the glTF asset (glTF says metres; skelform never rescales).
- * - Matrices are column-major 4x4 float[16], as glTF stores them.
- * - No call throws, aborts or exits on bad input: every call returns an sf_result.
+ * This header is plain C99 and C++ compatible; it is the runtime's manual.
  *
- * Status: this revision ships the version and result-code part of the API. Asset loading,
- * instances and evaluation arrive with the runtime (see docs/).
+ * Conventions, stated once for the whole API
+ * - Units are those of the glTF asset; skelform never rescales.
+ * - Matrices are column-major float[16], as glTF stores them. Joint matrices are
+ *   jointWorld × inverseBindMatrix, in the order of the skin's `joints` array (the usual
+ *   skinning matrices; the skinned node's own transform is not applied, as glTF specifies).
+ * - Vertex data goes out in the original glTF vertex order of each primitive, so an engine
+ *   streams it straight into the vertex buffers it built from the same glTF.
+ * - Output memory belongs to the caller and is described by pointer + byte stride.
+ *
+ * Ownership and threads
+ * - An sf_asset is immutable after loading: any number of threads and instances may use it
+ *   at once. Destroy it after its last instance.
+ * - An sf_instance holds one character's mutable state (pose, previous evaluation for
+ *   incremental fairing). Use it from one thread at a time; different instances may be
+ *   evaluated on different threads concurrently.
+ * - There is no global mutable state. No call throws, aborts or exits on bad input; every
+ *   call returns an sf_result and keeps a readable message (sf_instance_last_error, or the
+ *   caller's buffer in sf_load_options for loading).
+ * - Memory is allocated only when an asset or an instance is created (and when a handle set
+ *   is changed); evaluation and output never allocate.
  */
 #ifndef SKELFORM_SKELFORM_H
 #define SKELFORM_SKELFORM_H
@@ -39,6 +58,10 @@
 extern "C" {
 #endif
 
+/* ---------------------------------------------------------------------------------------- */
+/* Versions and results                                                                      */
+/* ---------------------------------------------------------------------------------------- */
+
 /* Version of this header. sf_version() returns the version of the linked library; a
  * program may compare the two to detect a header/library mismatch. */
 #define SF_VERSION_MAJOR 0
@@ -47,15 +70,20 @@ extern "C" {
 /* One integer, comparable: major * 10000 + minor * 100 + patch. */
 #define SF_VERSION (SF_VERSION_MAJOR * 10000 + SF_VERSION_MINOR * 100 + SF_VERSION_PATCH)
 
+/* The newest major version of the SKELFORM_skeletal_deformation extension this runtime
+ * reads; assets of a newer major version are refused with SF_ERROR_VERSION_MISMATCH. */
+#define SF_EXTENSION_MAJOR_VERSION 1
+
 /* Result of every call. Values are stable across versions; new codes are only appended. */
 typedef enum sf_result {
   SF_OK = 0,
-  SF_ERROR_INVALID_ARGUMENT = 1, /* a null pointer, a count or stride out of range */
-  SF_ERROR_INVALID_DATA = 2,     /* the asset's data is corrupt or inconsistent */
+  SF_ERROR_INVALID_ARGUMENT = 1, /* a null pointer, an index, count or stride out of range */
+  SF_ERROR_INVALID_DATA = 2,     /* the asset is corrupt or inconsistent */
   SF_ERROR_VERSION_MISMATCH = 3, /* the asset needs a newer runtime (newer major version) */
   SF_ERROR_OUT_OF_MEMORY = 4,    /* an allocation failed */
   SF_ERROR_IO = 5,               /* a file could not be read */
-  SF_ERROR_UNSUPPORTED = 6,      /* valid data that this runtime does not handle */
+  SF_ERROR_UNSUPPORTED = 6,      /* valid data or a request this runtime does not handle */
+  SF_ERROR_NOT_READY = 7,        /* a call out of order, e.g. output before any evaluation */
   SF_RESULT_FORCE_U32 = 0x7fffffff
 } sf_result;
 
@@ -65,6 +93,194 @@ SF_API uint32_t sf_version(void);
 /* A static, human-readable name for a result code ("SF_OK", "SF_ERROR_INVALID_DATA", ...).
  * Unknown values give "SF_ERROR_UNKNOWN". Never returns NULL. Thread-safe. */
 SF_API const char* sf_result_string(sf_result result);
+
+/* ---------------------------------------------------------------------------------------- */
+/* Memory                                                                                    */
+/* ---------------------------------------------------------------------------------------- */
+
+/* Optional allocator. `alloc` returns memory of at least `size` bytes aligned to `align` (a
+ * power of two, at most 64), or NULL on failure; `free` releases it (ptr may be NULL). Both
+ * may be called from any thread that creates or destroys objects using this allocator. The
+ * struct is copied: it need not outlive the call that receives it. */
+typedef struct sf_allocator {
+  void* (*alloc)(void* user, size_t size, size_t align);
+  void (*free)(void* user, void* ptr);
+  void* user;
+} sf_allocator;
+
+/* ---------------------------------------------------------------------------------------- */
+/* Assets                                                                                    */
+/* ---------------------------------------------------------------------------------------- */
+
+typedef struct sf_asset sf_asset; /* immutable after load, shareable across threads */
+
+/* Loading options; a zeroed struct (or NULL) means the defaults. */
+typedef struct sf_load_options {
+  /* Allocator for the asset and for every instance created from it; NULL = malloc/free. */
+  const sf_allocator* allocator;
+  /* Optional caller buffer that receives a NUL-terminated message when loading fails
+   * (truncated to the capacity). NULL / 0: no message. */
+  char* error_message;
+  size_t error_message_capacity;
+} sf_load_options;
+
+/* Loads a baked asset from glTF bytes in memory (.glb, or .gltf JSON whose buffers are data
+ * URIs). Every array of the extension is validated (counts, index ranges, finite values,
+ * version) before use. The bytes are not referenced after the call. On failure *out_asset
+ * is NULL. */
+SF_API sf_result sf_asset_load_memory(const void* data, size_t size, const sf_load_options* options,
+                                      sf_asset** out_asset);
+
+/* Loads a baked asset from a file (.glb or .gltf; a .gltf's external buffers are resolved
+ * relative to its directory). */
+SF_API sf_result sf_asset_load_file(const char* path, const sf_load_options* options, sf_asset** out_asset);
+
+/* Releases an asset. NULL is ignored. All its instances must have been destroyed. */
+SF_API void sf_asset_destroy(sf_asset* asset);
+
+/* Number of deformables (baked skinned meshes) in the asset; 0 for NULL. */
+SF_API uint32_t sf_asset_deformable_count(const sf_asset* asset);
+
+/* Description of one deformable. */
+typedef struct sf_deformable_info {
+  int32_t mesh;                  /* glTF mesh index */
+  int32_t node;                  /* glTF node instancing it with the skin, or -1 */
+  int32_t skin;                  /* glTF skin, or -1 (unskinned: handles only) */
+  uint32_t joint_count;          /* joints of the skin (matrices sf_instance_set_joint_matrices takes) */
+  uint32_t primitive_count;      /* baked primitives of the mesh */
+  uint32_t vertex_count;         /* original vertices, all primitives */
+  uint32_t control_vertex_count; /* vertices of the control (and skeletal) mesh */
+  uint32_t subdivision_level;    /* Loop level of the refined surface */
+} sf_deformable_info;
+
+SF_API sf_result sf_asset_deformable_info(const sf_asset* asset, uint32_t deformable, sf_deformable_info* out_info);
+
+/* Description of one baked primitive of a deformable (index 0 .. primitive_count-1, in the
+ * glTF mesh's primitive order). */
+typedef struct sf_primitive_info {
+  int32_t primitive;     /* index of the primitive in the glTF mesh */
+  uint32_t vertex_count; /* its POSITION count: the vertices written by sf_instance_write */
+  uint32_t first_vertex; /* offset of its vertices among the deformable's vertices */
+  uint32_t has_normals;  /* 1 if the primitive has NORMAL (else normals are computed) */
+  uint32_t has_tangents; /* 1 if the primitive has TANGENT (else no tangents are written) */
+} sf_primitive_info;
+
+SF_API sf_result sf_asset_primitive_info(const sf_asset* asset, uint32_t deformable, uint32_t primitive,
+                                         sf_primitive_info* out_info);
+
+/* ---------------------------------------------------------------------------------------- */
+/* Instances                                                                                 */
+/* ---------------------------------------------------------------------------------------- */
+
+typedef struct sf_instance sf_instance; /* one character's state, one thread at a time */
+
+/* Creates an instance of one deformable, at its rest pose (joint matrices = identity). All
+ * the memory it will ever need (but for handle sets) is allocated here, with the asset's
+ * allocator. */
+SF_API sf_result sf_instance_create(const sf_asset* asset, uint32_t deformable, sf_instance** out_instance);
+
+/* Releases an instance. NULL is ignored. */
+SF_API void sf_instance_destroy(sf_instance* instance);
+
+/* Message of the instance's last failed call ("" when none). Valid until the next call on
+ * the instance. Never NULL for a non-NULL instance. */
+SF_API const char* sf_instance_last_error(const sf_instance* instance);
+
+/* Skin driver input: `count` column-major 4x4 matrices (jointWorld × inverseBind) in the
+ * skin's joint order, each `stride_bytes` apart (0 = 64, tightly packed). count must equal
+ * the deformable's joint_count; matrices must be finite. Copied: the caller's array is not
+ * referenced after the call. Selects the skin driver. */
+SF_API sf_result sf_instance_set_joint_matrices(sf_instance* instance, const float* matrices, size_t count,
+                                                size_t stride_bytes);
+
+/* Free-form handle driver, paper Figs. 1 and 11 (its reference [25]): `handles` are original
+ * vertex indices (0 .. vertex_count-1 over the deformable's primitives) whose targets the
+ * caller will set; `pinned` are original vertex indices that stay at rest. The skeletal mesh
+ * follows a smooth bilaplacian displacement field interpolating them. Setting a handle set
+ * factorizes the system once (this call allocates); sf_instance_set_handle_targets then only
+ * solves. A handle and a pin on the same skeletal vertex, or no handle at all, are invalid. */
+SF_API sf_result sf_instance_set_handle_set(sf_instance* instance, const uint32_t* handles, size_t handle_count,
+                                            const uint32_t* pinned, size_t pinned_count);
+
+/* Targets (x, y, z) for the handles of the current set, in its order, `stride_bytes` apart
+ * (0 = 12). Selects the handle driver. */
+SF_API sf_result sf_instance_set_handle_targets(sf_instance* instance, const float* targets, size_t count,
+                                                size_t stride_bytes);
+
+/* ---------------------------------------------------------------------------------------- */
+/* Evaluation                                                                                */
+/* ---------------------------------------------------------------------------------------- */
+
+/* The deformation method. LBS and DQS deform the original vertices directly with the glTF
+ * skin: the baselines, through the same call path. */
+typedef enum sf_method {
+  SF_METHOD_SKELFORM = 0, /* skeletal mesh, reconstruction, fairing, refinement (default) */
+  SF_METHOD_LBS = 1,      /* linear blend skinning of the original vertices */
+  SF_METHOD_DQS = 2,      /* dual quaternion skinning of the original vertices */
+  SF_METHOD_FORCE_U32 = 0x7fffffff
+} sf_method;
+
+/* How the skin moves the skeletal mesh (SF_METHOD_SKELFORM with the skin driver). */
+typedef enum sf_skeleton_skinning {
+  SF_SKELETON_LBS = 0, /* default */
+  SF_SKELETON_DQS = 1,
+  SF_SKELETON_SKINNING_FORCE_U32 = 0x7fffffff
+} sf_skeleton_skinning;
+
+/* Which normals N the reconstruction M = S' + d·N uses (DESIGN.md: the paper's eq. (3) is
+ * unstable on dense control meshes). */
+typedef enum sf_reconstruction {
+  /* Default. Skin driver: the rest normals turned by each skeletal vertex's blended joint
+   * rotation; handle driver: as SF_RECONSTRUCTION_PAPER. */
+  SF_RECONSTRUCTION_CARRIED = 0,
+  /* The paper's homotopy (2)/(3): L steps, normals recomputed from the previous step. */
+  SF_RECONSTRUCTION_PAPER = 1,
+  SF_RECONSTRUCTION_FORCE_U32 = 0x7fffffff
+} sf_reconstruction;
+
+/* Evaluation flags (bit mask). */
+#define SF_EVAL_FROM_REST 0x1u       /* ignore the previous evaluation: start from rest and run to convergence */
+#define SF_EVAL_SKIP_NORMALS 0x2u    /* do not compute normals/tangents (sf_instance_write leaves them) */
+
+/* Evaluation options; a zeroed struct (or NULL) means the documented defaults. Fields are
+ * only appended in later versions. */
+typedef struct sf_eval_options {
+  uint32_t method;              /* sf_method; 0 = SF_METHOD_SKELFORM */
+  uint32_t skeleton_skinning;   /* sf_skeleton_skinning; 0 = LBS */
+  uint32_t reconstruction;      /* sf_reconstruction; 0 = carried normals */
+  uint32_t homotopy_steps;      /* L of eq. (2); 0 = 3 (the paper's choice) */
+  uint32_t flags;               /* SF_EVAL_* bits */
+  /* Fairing (paper eqs. (4) and (5)); see docs/. Reserved until the fairing ships: must be
+   * zero. */
+  uint32_t fairing_flags;
+  uint32_t fairing_iterations;
+  float fairing_step;
+  float intersection_step;
+  uint32_t intersection_grid;
+} sf_eval_options;
+
+/* Evaluates the instance's current input (joint matrices or handle targets) into its
+ * internal buffers. Incremental by default: state carried from the previous evaluation
+ * (fairing warm start) is reused unless SF_EVAL_FROM_REST is set. Never allocates. */
+SF_API sf_result sf_instance_evaluate(sf_instance* instance, const sf_eval_options* options);
+
+/* Where sf_instance_write puts one primitive's vertices. A NULL pointer skips that stream.
+ * Strides are in bytes (0 = tightly packed: 12 for positions/normals, 16 for tangents). */
+typedef struct sf_vertex_output {
+  float* positions; /* x, y, z per vertex */
+  size_t position_stride;
+  float* normals; /* unit x, y, z per vertex */
+  size_t normal_stride;
+  float* tangents; /* x, y, z, w per vertex; w (handedness) as authored */
+  size_t tangent_stride;
+  size_t vertex_capacity; /* vertices the caller's buffers hold; must be >= the primitive's count */
+} sf_vertex_output;
+
+/* Writes the last evaluation of one primitive (0 .. primitive_count-1 of the deformable) into
+ * the caller's buffers, in the primitive's original glTF vertex order. Tangents are written
+ * only for primitives with authored tangents (else SF_ERROR_UNSUPPORTED if requested). Never
+ * allocates; touches no byte outside the described elements. */
+SF_API sf_result sf_instance_write(const sf_instance* instance, uint32_t primitive, const sf_vertex_output* output);
 
 #ifdef __cplusplus
 } /* extern "C" */

@@ -1,0 +1,106 @@
+// The loaded, validated, immutable asset (sf_asset): everything an evaluation reads. Built by
+// asset_load.cpp from a baked glTF; read by every runtime stage. Arrays are flat and indexed
+// by the conventions below, so the hot loops read them without indirection.
+#pragma once
+
+#include "memory.h"
+#include "skelform/skelform.h"
+
+#include <glm/mat3x3.hpp>
+#include <glm/vec2.hpp>
+#include <glm/vec3.hpp>
+#include <glm/vec4.hpp>
+
+#include <cstdint>
+
+namespace skelform::runtime {
+
+struct PrimitiveRecord {
+  int32_t primitive = -1;       // index in the glTF mesh
+  uint32_t first_vertex = 0;    // offset among the deformable's dense vertices
+  uint32_t vertex_count = 0;
+  uint32_t first_triangle = 0;  // offset in Deformable::dense_triangles (in triangles)
+  uint32_t triangle_count = 0;
+  bool has_normals = false;
+  bool has_tangents = false;
+};
+
+// One baked skinned mesh. "Dense" = the original glTF vertices of all its primitives,
+// concatenated in primitive order (the binding order of the extension).
+struct Deformable {
+  explicit Deformable(const AllocatorRef& a)
+      : primitives(CallbackAllocator<PrimitiveRecord>(a)), rest_positions(CallbackAllocator<glm::vec3>(a)),
+        rest_normals(CallbackAllocator<glm::vec3>(a)), rest_tangents(CallbackAllocator<glm::vec4>(a)),
+        dense_triangles(CallbackAllocator<uint32_t>(a)), dense_joints(CallbackAllocator<uint16_t>(a)),
+        dense_weights(CallbackAllocator<float>(a)), control_positions(CallbackAllocator<glm::vec3>(a)),
+        control_normals(CallbackAllocator<glm::vec3>(a)), control_indices(CallbackAllocator<uint32_t>(a)),
+        skeletal_positions(CallbackAllocator<glm::vec3>(a)), medial_radius(CallbackAllocator<float>(a)),
+        control_joints(CallbackAllocator<uint16_t>(a)), control_weights(CallbackAllocator<float>(a)),
+        stencil_offsets(CallbackAllocator<uint32_t>(a)), stencil_indices(CallbackAllocator<uint32_t>(a)),
+        stencil_weights(CallbackAllocator<float>(a)), refined_indices(CallbackAllocator<uint32_t>(a)),
+        binding_triangle(CallbackAllocator<uint32_t>(a)), binding_barycentric(CallbackAllocator<glm::vec2>(a)),
+        binding_displacement(CallbackAllocator<float>(a)), binding_residual(CallbackAllocator<glm::vec2>(a)),
+        rest_frames(CallbackAllocator<glm::mat3>(a)), handle_control_vertex(CallbackAllocator<uint32_t>(a)) {}
+
+  int32_t mesh = -1;
+  int32_t node = -1;
+  int32_t skin = -1;
+  uint32_t joint_count = 0;  // joints of the skin (0 when unskinned)
+  Array<PrimitiveRecord> primitives;
+
+  // Dense vertices (from the glTF primitives themselves).
+  uint32_t vertex_count = 0;
+  Array<glm::vec3> rest_positions;
+  Array<glm::vec3> rest_normals;   // authored NORMAL, or area-weighted from dense_triangles
+  Array<glm::vec4> rest_tangents;  // authored TANGENT (xyz, w); empty entries where absent
+  Array<uint32_t> dense_triangles; // 3 per triangle, deformable-wide vertex indices
+  // Dense skin for the LBS/DQS baselines: `influences` (4 × sets) per vertex, zero-weight
+  // slots name joint 0.
+  uint32_t influences = 0;
+  Array<uint16_t> dense_joints;
+  Array<float> dense_weights;
+
+  // Control mesh M and skeletal mesh S at rest: M = S + d·N (paper eq. (1)).
+  uint32_t control_vertex_count = 0;
+  Array<glm::vec3> control_positions;
+  Array<glm::vec3> control_normals;
+  Array<uint32_t> control_indices;  // 3 per triangle
+  Array<glm::vec3> skeletal_positions;
+  Array<float> medial_radius;
+  // Skin of the control/skeletal vertices: `influences` (4 × sets) per vertex, as above.
+  Array<uint16_t> control_joints;
+  Array<float> control_weights;
+
+  // Loop stencils to level `subdivision_level` and the refined triangles.
+  uint32_t subdivision_level = 0;
+  uint32_t refined_vertex_count = 0;
+  Array<uint32_t> stencil_offsets;  // refined_vertex_count + 1
+  Array<uint32_t> stencil_indices;
+  Array<float> stencil_weights;
+  Array<uint32_t> refined_indices;  // 3 per refined triangle
+
+  // DSS binding of every dense vertex.
+  Array<uint32_t> binding_triangle;
+  Array<glm::vec2> binding_barycentric;
+  Array<float> binding_displacement;
+  Array<glm::vec2> binding_residual;
+
+  // Derived at load time from the rest evaluation (dss_frame.h): the rest frame
+  // (tangent, bitangent, normal as columns) of each dense vertex's bound point, so normals
+  // and tangents turn by the rotation from rest frame to deformed frame.
+  Array<glm::mat3> rest_frames;
+  // The control vertex that an original vertex used as a handle moves: the corner with the
+  // largest barycentric of its refined triangle, then that refined vertex's heaviest stencil
+  // entry.
+  Array<uint32_t> handle_control_vertex;
+};
+
+}  // namespace skelform::runtime
+
+// The public opaque type.
+struct sf_asset {
+  explicit sf_asset(const skelform::runtime::AllocatorRef& a)
+      : allocator(a), deformables(skelform::runtime::CallbackAllocator<skelform::runtime::Deformable>(a)) {}
+  skelform::runtime::AllocatorRef allocator;
+  skelform::runtime::Array<skelform::runtime::Deformable> deformables;
+};
