@@ -13,6 +13,7 @@ const char* sf_result_string(sf_result result) {
     case SF_ERROR_OUT_OF_MEMORY: return "SF_ERROR_OUT_OF_MEMORY";
     case SF_ERROR_IO: return "SF_ERROR_IO";
     case SF_ERROR_UNSUPPORTED: return "SF_ERROR_UNSUPPORTED";
+    case SF_ERROR_NOT_READY: return "SF_ERROR_NOT_READY";
     case SF_RESULT_FORCE_U32: break;
   }
   return "SF_ERROR_UNKNOWN";
