@@ -1,0 +1,44 @@
+// Runtime step 4 (DESIGN.md), first half: Loop refinement of the (deformed) control mesh with
+// the baked stencils, the refined mesh's vertex normals, and the DSS frame of each dense
+// vertex's bound point. asset_load.cpp runs these once on the rest control mesh (to derive
+// Deformable::rest_frames); the evaluation runs them every frame on the faired control mesh.
+//
+// Same arithmetic as the baker (bake/src/subdivision.cpp apply_stencils and dss_frame.h), in
+// float and in the same order, so the rest pose reproduces the bake bit for bit.
+//
+// Allocation-free, exception-free, no state: safe in the per-frame path and on any thread.
+// Every function trusts the asset's validation (asset_load.cpp): indices in range, counts as
+// extension_layout.h says.
+#pragma once
+
+#include "asset.h"
+#include "dss_frame.h"
+
+#include <glm/vec3.hpp>
+
+#include <cstdint>
+
+namespace skelform::runtime {
+
+// Refined vertex v = sum of stencil_weights[s] * control[stencil_indices[s]] over
+// s in [stencil_offsets[v], stencil_offsets[v+1]), each sum started from zero and taken in
+// stencil order (spec "Stencil evaluation"). `control` holds control_vertex_count positions,
+// `refined` refined_vertex_count; they may not alias.
+void refine_positions(const Deformable& deformable, const glm::vec3* control, glm::vec3* refined);
+
+// Area-weighted unit vertex normals of the refined mesh (dss::refined_vertex_normals over
+// refined_indices): the smooth normal field DSS displaces along. `normals` holds
+// refined_vertex_count entries and may not alias `refined`.
+void refined_normals(const Deformable& deformable, const glm::vec3* refined, glm::vec3* normals);
+
+// The DSS frame (point q(b), normal n(b), tangent, bitangent) of dense vertex `vertex`'s bound
+// point on the refined mesh given by `refined` positions and their `normals`.
+inline dss::SurfaceFrame bound_frame(const Deformable& deformable, const glm::vec3* refined,
+                                     const glm::vec3* normals, uint32_t vertex) {
+  const uint32_t* corner = deformable.refined_indices.data() + 3 * size_t{deformable.binding_triangle[vertex]};
+  const glm::vec2 b = deformable.binding_barycentric[vertex];
+  return dss::surface_frame(refined[corner[0]], refined[corner[1]], refined[corner[2]], normals[corner[0]],
+                            normals[corner[1]], normals[corner[2]], b.x, b.y);
+}
+
+}  // namespace skelform::runtime
