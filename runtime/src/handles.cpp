@@ -1,0 +1,373 @@
+// Free-form handle driver: the bilaplacian displacement field of the paper's reference [25]
+// (Yoshizawa, Belyaev, Seidel, PG 2002) on the skeletal mesh. See handles.h for the contract.
+//
+// The operator. [25] (after Kobbelt et al., the paper's [17]) discretises the Laplacian by
+// the umbrella operator U(δ)_i = mean_{j ∈ N(i)} δ_j − δ_i, which depends on connectivity
+// only. We keep it, and not the cotangent Laplacian, on purpose: the skeletal mesh is a
+// crumpled Voronoi-based surface (DESIGN.md bake step 5) where thin parts collapse to curves,
+// so it is full of near-degenerate and folded triangles. There, cotangent weights are
+// negative or unbounded (cot of angles near 0 or π), the operator loses its maximum principle
+// and the field can overshoot or spike; the umbrella weights are positive and bounded whatever
+// the geometry, and a translation of all handles is still reproduced exactly (U(constant) = 0).
+//
+// The system. With A the adjacency and D the degree matrix of the mesh graph, K = D − A is
+// the symmetric graph Laplacian and U = −D⁻¹K. The energy
+//     E(δ) = Σ_i deg_i |U(δ)_i|² = δᵀ K D⁻¹ K δ = δᵀ Q δ
+// is minimised over the free vertices with δ fixed at handles and pinned vertices. Its
+// optimality condition at a free vertex i, (Qδ)_i = deg_i (U²δ)_i = 0, is exactly Kobbelt's
+// bi-umbrella equation U²δ = 0 (Δ²δ = 0), and Q is symmetric positive semi-definite, so the
+// free block Q_ff is symmetric and can be factorised by sparse LDLᵀ. Q_ff is positive
+// definite as soon as every connected component holds a constrained vertex (Kδ = 0 forces δ
+// constant per component, hence zero where a constrained zero sits); components without one
+// are taken out of the system and stay at rest (handles.h), so no regularisation is needed.
+//
+// The solve. Q_ff δ_f = −Q_fh δ_h (pinned vertices contribute nothing: their δ is 0). Eigen's
+// SimplicialLDLT gives P Q_ff Pᵀ = L D Lᵀ once per handle set; we copy P, L (its compressed
+// columns: the rows of Lᵀ) and D into arrays of our own and do the permuted forward /
+// diagonal / backward substitution ourselves, because the C API promises that evaluation
+// never allocates, and Eigen's solve() allocates temporaries for the permuted right-hand side.
+// Doing it here also keeps Eigen out of the per-frame code entirely. The three coordinates are
+// solved together (interleaved), in double precision: Q has the condition number of a
+// squared Laplacian, so float would lose several digits on a few thousand vertices.
+#include "handles.h"
+
+#include <Eigen/Dense>
+#include <Eigen/Sparse>
+
+#include <algorithm>
+#include <new>
+#include <stdexcept>
+#include <string>
+#include <utility>
+
+namespace skelform::runtime {
+
+namespace {
+
+// What drives a skeletal vertex.
+enum VertexRole : uint8_t {
+  kFree = 0,    // unknown of the system; ref = its index among the unknowns
+  kHandle = 1,  // given displacement; ref = its slot among the distinct handle vertices
+  kStill = 2,   // δ = 0: pinned, or in a component with no handle and no pin
+};
+
+}  // namespace
+
+struct HandleSystem {
+  explicit HandleSystem(const AllocatorRef& a)
+      : vertex_role(CallbackAllocator<uint8_t>(a)), vertex_ref(CallbackAllocator<uint32_t>(a)),
+        handle_slot(CallbackAllocator<uint32_t>(a)), slot_weight(CallbackAllocator<double>(a)),
+        coupling_offsets(CallbackAllocator<uint32_t>(a)), coupling_slot(CallbackAllocator<uint32_t>(a)),
+        coupling_weight(CallbackAllocator<double>(a)), permutation(CallbackAllocator<uint32_t>(a)),
+        factor_offsets(CallbackAllocator<uint32_t>(a)), factor_rows(CallbackAllocator<uint32_t>(a)),
+        factor_values(CallbackAllocator<double>(a)), factor_diagonal(CallbackAllocator<double>(a)),
+        slot_displacement(CallbackAllocator<double>(a)), work(CallbackAllocator<double>(a)) {}
+
+  uint32_t vertex_count = 0;  // the deformable's control_vertex_count
+  uint32_t free_count = 0;    // unknowns of the reduced system
+  size_t handle_count = 0;    // entries of the caller's handle list (duplicates included)
+  uint32_t slot_count = 0;    // distinct handle vertices
+
+  Array<uint8_t> vertex_role;   // VertexRole per skeletal vertex
+  Array<uint32_t> vertex_ref;   // see VertexRole
+  Array<uint32_t> handle_slot;  // per handle entry: its distinct vertex's slot
+  Array<double> slot_weight;    // per slot: 1 / how often the caller listed that vertex
+
+  // −Q_fh, row-compressed by free unknown: rhs_f = Σ coupling_weight · δ_slot.
+  Array<uint32_t> coupling_offsets;  // free_count + 1
+  Array<uint32_t> coupling_slot;
+  Array<double> coupling_weight;
+
+  // P Q_ff Pᵀ = L D Lᵀ. permutation[i] = where unknown i goes in the factor's order (Eigen's
+  // permutationP().indices()). L is unit lower triangular, stored by columns without its
+  // diagonal: column j holds the rows i > j of L (equivalently, row j of Lᵀ).
+  Array<uint32_t> permutation;
+  Array<uint32_t> factor_offsets;  // free_count + 1
+  Array<uint32_t> factor_rows;
+  Array<double> factor_values;
+  Array<double> factor_diagonal;   // D
+
+  // Solve scratch, sized at creation (the instance is single-threaded, handles.h).
+  mutable Array<double> slot_displacement;  // 3 per slot
+  mutable Array<double> work;               // 3 per unknown
+};
+
+namespace {
+
+[[noreturn]] void invalid(const std::string& message) { throw std::invalid_argument("handle set: " + message); }
+
+// Distinct undirected edges of the triangles (self-edges of degenerate triangles dropped),
+// as a row-compressed adjacency: neighbours of v are adjacency[offsets[v] .. offsets[v+1]).
+void build_adjacency(const Deformable& d, Array<uint32_t>& offsets, Array<uint32_t>& adjacency,
+                     const AllocatorRef& alloc) {
+  const uint32_t n = d.control_vertex_count;
+  Array<std::pair<uint32_t, uint32_t>> directed{CallbackAllocator<std::pair<uint32_t, uint32_t>>(alloc)};
+  directed.reserve(d.control_indices.size() * 2);
+  for (size_t t = 0; t + 2 < d.control_indices.size(); t += 3) {
+    for (int corner = 0; corner < 3; ++corner) {
+      const uint32_t a = d.control_indices[t + corner];
+      const uint32_t b = d.control_indices[t + (corner + 1) % 3];
+      if (a == b) continue;
+      directed.emplace_back(a, b);
+      directed.emplace_back(b, a);
+    }
+  }
+  std::sort(directed.begin(), directed.end());
+  directed.erase(std::unique(directed.begin(), directed.end()), directed.end());
+  offsets.assign(size_t(n) + 1, 0);
+  for (const auto& e : directed) ++offsets[e.first + 1];
+  for (uint32_t v = 0; v < n; ++v) offsets[v + 1] += offsets[v];
+  adjacency.resize(directed.size());
+  for (size_t k = 0; k < directed.size(); ++k) adjacency[k] = directed[k].second;  // sorted by source
+}
+
+}  // namespace
+
+HandleSystem* handle_system_create(const Deformable& d, const uint32_t* handle_control, size_t handle_count,
+                                   const uint32_t* pinned_control, size_t pinned_count,
+                                   const AllocatorRef& alloc) {
+  const uint32_t n = d.control_vertex_count;
+  if (handle_count == 0 || !handle_control) invalid("no handle");
+  if (pinned_count > 0 && !pinned_control) invalid("pinned_count > 0 with no pinned array");
+  if (d.skeletal_positions.size() != n) invalid("skeletal mesh has no positions for its control vertices");
+  if (d.control_indices.size() % 3 != 0) invalid("skeletal triangle indices are not a multiple of 3");
+  for (uint32_t index : d.control_indices)
+    if (index >= n) invalid("skeletal triangle index out of range");
+
+  HandleSystem* s = create_object<HandleSystem>(alloc, alloc);
+  try {
+    s->vertex_count = n;
+    s->handle_count = handle_count;
+    s->vertex_role.assign(n, kFree);
+    s->vertex_ref.assign(n, 0);
+
+    // Roles. Duplicated handles share one slot (their displacements are averaged).
+    s->handle_slot.resize(handle_count);
+    Array<uint32_t> slot_multiplicity{CallbackAllocator<uint32_t>(alloc)};
+    Array<uint32_t> slot_vertex{CallbackAllocator<uint32_t>(alloc)};
+    for (size_t i = 0; i < handle_count; ++i) {
+      const uint32_t v = handle_control[i];
+      if (v >= n) invalid("handle " + std::to_string(i) + " names control vertex " + std::to_string(v) + " of " + std::to_string(n));
+      if (s->vertex_role[v] != kHandle) {
+        s->vertex_role[v] = kHandle;
+        s->vertex_ref[v] = uint32_t(slot_vertex.size());
+        slot_vertex.push_back(v);
+        slot_multiplicity.push_back(0);
+      }
+      s->handle_slot[i] = s->vertex_ref[v];
+      ++slot_multiplicity[s->vertex_ref[v]];
+    }
+    s->slot_count = uint32_t(slot_vertex.size());
+    s->slot_weight.resize(s->slot_count);
+    for (uint32_t u = 0; u < s->slot_count; ++u) s->slot_weight[u] = 1.0 / slot_multiplicity[u];
+    for (size_t i = 0; i < pinned_count; ++i) {
+      const uint32_t v = pinned_control[i];
+      if (v >= n) invalid("pinned vertex " + std::to_string(i) + " names control vertex " + std::to_string(v) + " of " + std::to_string(n));
+      if (s->vertex_role[v] == kHandle) invalid("control vertex " + std::to_string(v) + " is both a handle and pinned");
+      s->vertex_role[v] = kStill;
+    }
+
+    Array<uint32_t> offsets{CallbackAllocator<uint32_t>(alloc)};
+    Array<uint32_t> adjacency{CallbackAllocator<uint32_t>(alloc)};
+    build_adjacency(d, offsets, adjacency, alloc);
+
+    // Components with no constrained vertex stay at rest (see the file comment): flood each
+    // component once, then demote its free vertices to kStill if nothing anchors it.
+    {
+      Array<uint32_t> component(n, UINT32_MAX, CallbackAllocator<uint32_t>(alloc));
+      Array<uint32_t> stack{CallbackAllocator<uint32_t>(alloc)};
+      Array<uint32_t> members{CallbackAllocator<uint32_t>(alloc)};
+      for (uint32_t seed = 0; seed < n; ++seed) {
+        if (component[seed] != UINT32_MAX) continue;
+        bool anchored = false;
+        members.clear();
+        stack.assign(1, seed);
+        component[seed] = seed;
+        while (!stack.empty()) {
+          const uint32_t v = stack.back();
+          stack.pop_back();
+          members.push_back(v);
+          anchored = anchored || s->vertex_role[v] != kFree;
+          for (uint32_t k = offsets[v]; k < offsets[v + 1]; ++k) {
+            const uint32_t w = adjacency[k];
+            if (component[w] == UINT32_MAX) {
+              component[w] = seed;
+              stack.push_back(w);
+            }
+          }
+        }
+        if (!anchored)
+          for (uint32_t v : members) s->vertex_role[v] = kStill;
+      }
+    }
+    uint32_t free_count = 0;
+    for (uint32_t v = 0; v < n; ++v)
+      if (s->vertex_role[v] == kFree) s->vertex_ref[v] = free_count++;
+    s->free_count = free_count;
+
+    // Q = K D⁻¹ K over the whole mesh (Eigen, default heap), then split into Q_ff and Q_fh.
+    using SparseMatrix = Eigen::SparseMatrix<double, Eigen::ColMajor, int>;
+    SparseMatrix q_ff(free_count, free_count);
+    {
+      std::vector<Eigen::Triplet<double>> entries;
+      entries.reserve(adjacency.size() + n);
+      Eigen::VectorXd inverse_degree = Eigen::VectorXd::Zero(n);
+      for (uint32_t v = 0; v < n; ++v) {
+        const uint32_t degree = offsets[v + 1] - offsets[v];
+        if (degree == 0) continue;  // an unused vertex: alone in its component, kStill
+        entries.emplace_back(int(v), int(v), double(degree));
+        for (uint32_t k = offsets[v]; k < offsets[v + 1]; ++k) entries.emplace_back(int(v), int(adjacency[k]), -1.0);
+        inverse_degree[v] = 1.0 / degree;
+      }
+      SparseMatrix laplacian(n, n);  // K, symmetric
+      laplacian.setFromTriplets(entries.begin(), entries.end());
+      const SparseMatrix scaled = inverse_degree.asDiagonal() * laplacian;
+      const SparseMatrix q = laplacian * scaled;  // symmetric: column j = row j
+
+      entries.clear();
+      s->coupling_offsets.assign(size_t(free_count) + 1, 0);
+      // Column v of q is row v by symmetry, so one pass over the columns of free vertices
+      // gives both the free block and the free × handle coupling, row by row.
+      for (uint32_t v = 0; v < n; ++v) {
+        if (s->vertex_role[v] != kFree) continue;
+        const uint32_t row = s->vertex_ref[v];
+        for (SparseMatrix::InnerIterator it(q, int(v)); it; ++it) {
+          const uint32_t w = uint32_t(it.row());
+          if (it.value() == 0.0) continue;
+          if (s->vertex_role[w] == kFree) {
+            entries.emplace_back(int(row), int(s->vertex_ref[w]), it.value());
+          } else if (s->vertex_role[w] == kHandle) {
+            s->coupling_slot.push_back(s->vertex_ref[w]);
+            s->coupling_weight.push_back(-it.value());
+          }
+        }
+        s->coupling_offsets[row + 1] = uint32_t(s->coupling_slot.size());
+      }
+      q_ff.setFromTriplets(entries.begin(), entries.end());
+    }
+
+    if (free_count > 0) {
+      Eigen::SimplicialLDLT<SparseMatrix, Eigen::Lower> ldlt(q_ff);
+      if (ldlt.info() != Eigen::Success)
+        throw std::runtime_error("handle set: the bilaplacian system could not be factorised");
+
+      s->permutation.resize(free_count);
+      const auto& p = ldlt.permutationP();
+      for (uint32_t i = 0; i < free_count; ++i)
+        s->permutation[i] = p.size() == 0 ? i : uint32_t(p.indices()[i]);
+
+      const SparseMatrix& l = ldlt.matrixL().nestedExpression();
+      s->factor_offsets.assign(size_t(free_count) + 1, 0);
+      s->factor_rows.reserve(size_t(l.nonZeros()));
+      s->factor_values.reserve(size_t(l.nonZeros()));
+      for (uint32_t j = 0; j < free_count; ++j) {
+        // The unit diagonal is implicit (Eigen's LDLᵀ does not store it); skip it if present.
+        for (SparseMatrix::InnerIterator it(l, int(j)); it; ++it) {
+          if (uint32_t(it.row()) <= j) continue;
+          s->factor_rows.push_back(uint32_t(it.row()));
+          s->factor_values.push_back(it.value());
+        }
+        s->factor_offsets[j + 1] = uint32_t(s->factor_rows.size());
+      }
+      const Eigen::VectorXd& diagonal = ldlt.vectorD();
+      s->factor_diagonal.resize(free_count);
+      for (uint32_t j = 0; j < free_count; ++j) {
+        if (!(diagonal[j] > 0.0))  // positive definite by construction (file comment)
+          throw std::runtime_error("handle set: the bilaplacian system is not positive definite");
+        s->factor_diagonal[j] = diagonal[j];
+      }
+    }
+
+    s->slot_displacement.assign(size_t(s->slot_count) * 3, 0.0);
+    s->work.assign(size_t(free_count) * 3, 0.0);
+    return s;
+  } catch (...) {
+    destroy_object(alloc, s);
+    throw;
+  }
+}
+
+void handle_system_destroy(HandleSystem* s, const AllocatorRef& alloc) { destroy_object(alloc, s); }
+
+size_t handle_system_handle_count(const HandleSystem& s) { return s.handle_count; }
+
+void handle_system_solve(const HandleSystem& s, const Deformable& d, const glm::vec3* handle_displacements,
+                         glm::vec3* skeletal_out) {
+  double* const slot = s.slot_displacement.data();
+  double* const y = s.work.data();
+  const uint32_t m = s.free_count;
+
+  // Displacement of each distinct handle vertex (the mean over its entries).
+  std::fill(s.slot_displacement.begin(), s.slot_displacement.end(), 0.0);
+  for (size_t i = 0; i < s.handle_count; ++i) {
+    const uint32_t u = s.handle_slot[i];
+    const double w = s.slot_weight[u];
+    slot[3 * u + 0] += w * handle_displacements[i].x;
+    slot[3 * u + 1] += w * handle_displacements[i].y;
+    slot[3 * u + 2] += w * handle_displacements[i].z;
+  }
+
+  // y = P b with b = −Q_fh δ_h.
+  for (uint32_t f = 0; f < m; ++f) {
+    double bx = 0.0, by = 0.0, bz = 0.0;
+    for (uint32_t k = s.coupling_offsets[f]; k < s.coupling_offsets[f + 1]; ++k) {
+      const double w = s.coupling_weight[k];
+      const double* h = slot + 3 * size_t(s.coupling_slot[k]);
+      bx += w * h[0];
+      by += w * h[1];
+      bz += w * h[2];
+    }
+    double* target = y + 3 * size_t(s.permutation[f]);
+    target[0] = bx;
+    target[1] = by;
+    target[2] = bz;
+  }
+  // L z = y (column-oriented: once z_j is final, push it into the rows below).
+  for (uint32_t j = 0; j < m; ++j) {
+    const double zx = y[3 * j], zy = y[3 * j + 1], zz = y[3 * j + 2];
+    for (uint32_t k = s.factor_offsets[j]; k < s.factor_offsets[j + 1]; ++k) {
+      double* row = y + 3 * size_t(s.factor_rows[k]);
+      const double l = s.factor_values[k];
+      row[0] -= l * zx;
+      row[1] -= l * zy;
+      row[2] -= l * zz;
+    }
+  }
+  // D w = z.
+  for (uint32_t j = 0; j < m; ++j) {
+    const double inv = 1.0 / s.factor_diagonal[j];
+    y[3 * j] *= inv;
+    y[3 * j + 1] *= inv;
+    y[3 * j + 2] *= inv;
+  }
+  // Lᵀ x = w (row j of Lᵀ is column j of L: a dot product with the later, final entries).
+  for (uint32_t j = m; j-- > 0;) {
+    double sx = y[3 * j], sy = y[3 * j + 1], sz = y[3 * j + 2];
+    for (uint32_t k = s.factor_offsets[j]; k < s.factor_offsets[j + 1]; ++k) {
+      const double* row = y + 3 * size_t(s.factor_rows[k]);
+      const double l = s.factor_values[k];
+      sx -= l * row[0];
+      sy -= l * row[1];
+      sz -= l * row[2];
+    }
+    y[3 * j] = sx;
+    y[3 * j + 1] = sy;
+    y[3 * j + 2] = sz;
+  }
+
+  // S' = S + δ; the unknowns come back through Pᵀ: δ_f = x[permutation[f]].
+  for (uint32_t v = 0; v < s.vertex_count; ++v) {
+    const glm::dvec3 rest(d.skeletal_positions[v]);
+    glm::dvec3 delta(0.0);
+    if (s.vertex_role[v] == kFree) {
+      const double* x = y + 3 * size_t(s.permutation[s.vertex_ref[v]]);
+      delta = glm::dvec3(x[0], x[1], x[2]);
+    } else if (s.vertex_role[v] == kHandle) {
+      const double* h = slot + 3 * size_t(s.vertex_ref[v]);
+      delta = glm::dvec3(h[0], h[1], h[2]);
+    }
+    skeletal_out[v] = glm::vec3(rest + delta);
+  }
+}
+
+}  // namespace skelform::runtime
