@@ -1,0 +1,113 @@
+// glTF skeletal animation sampling for the samples, skelform-pose and skelform-bench.
+//
+// The runtime takes joint matrices; where they come from is the application's business
+// (DESIGN.md: the animation sampler "lives outside the runtime library, in a small helper that
+// samples and CLI share"). This helper reads a glTF 2.0 file once (tinygltf; images are not
+// decoded), validates every node, skin and animation it will use, and then evaluates:
+//
+//   joint matrix j = globalTransform(joints[j]) × inverseBindMatrices[j]
+//
+// column-major float[16] per joint, in the skin's `joints` order: exactly what
+// sf_instance_set_joint_matrices takes. globalTransform is the product of the local
+// transforms from the scene root down to the joint (node `matrix`, or T × R × S from its
+// translation/rotation/scale, with animated channels overriding the static TRS).
+//
+// The skinned mesh node's own transform is deliberately NOT folded in (no multiplication by
+// inverse(globalTransform(meshNode))): the glTF 2.0 specification (section 3.7.3.3, "Skinned
+// Mesh Attributes") says the transform of a skinned mesh's node is ignored and only the joint
+// transforms place the mesh. Engines that parent a skinned mesh under a moving node follow
+// the same rule, and the runtime's rest pose (identity joint matrices) is the bind pose.
+//
+// Sampling follows the specification's appendix C: LINEAR (component-wise lerp; spherical
+// linear interpolation along the shorter arc for rotations), STEP (the keyframe at or before
+// t) and CUBICSPLINE (cubic Hermite with the stored in/out tangents scaled by the keyframe
+// interval; rotations normalised afterwards). Before the first keyframe a channel holds its
+// first value, after the last its last value. `weights` (morph target) channels are
+// validated but not applied: skelform deforms skins only.
+//
+// Every failure is reported by throwing GltfError with a one-line message naming the file and
+// the offending object; no input makes these functions crash or return non-finite matrices.
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+#include <limits>
+#include <memory>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+namespace skelform::samples {
+
+// Invalid or unsupported glTF content, an unreadable file, or an out-of-range request.
+class GltfError : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
+// One animation of the file.
+struct AnimationInfo {
+  std::string name;   // the glTF name, or "animation N" when it has none
+  double start = 0;   // first keyframe time of all its channels, seconds
+  double end = 0;     // last keyframe time of all its channels, seconds
+  double duration() const { return end - start; }
+};
+
+// Pass as `animation` to sample the bind (rest) pose: every node at its static
+// translation/rotation/scale or matrix, no animation applied.
+inline constexpr size_t kBindPose = std::numeric_limits<size_t>::max();
+
+// A loaded, validated glTF document. Immutable after loading; any number of threads may
+// sample it at once. Movable, not copyable.
+class GltfAnimation {
+ public:
+  // Reads a .gltf (external buffers resolved beside it) or .glb file; the container is
+  // recognised by its bytes, not the file name.
+  static GltfAnimation load_file(const std::string& path);
+  // The same on bytes in memory; `name` is used in messages and `base_dir` resolves
+  // external URIs of a .gltf (data URIs need none).
+  static GltfAnimation load_memory(const std::string& bytes, const std::string& name,
+                                   const std::string& base_dir = "");
+
+  GltfAnimation(GltfAnimation&&) noexcept;
+  GltfAnimation& operator=(GltfAnimation&&) noexcept;
+  ~GltfAnimation();
+
+  const std::string& name() const;
+  size_t node_count() const;
+  size_t skin_count() const;
+  size_t joint_count(size_t skin) const;
+  const std::vector<AnimationInfo>& animations() const;
+
+  // Joint matrices of `skin` with `animation` sampled at `time` seconds (clamped to the
+  // animation's [start, end]), or of the bind pose when animation == kBindPose (time is then
+  // ignored). 16 floats per joint, column-major, skin joint order. Throws GltfError for an
+  // out-of-range skin/animation or a non-finite time.
+  std::vector<float> joint_matrices(size_t skin, size_t animation, double time) const;
+  std::vector<float> bind_pose_joint_matrices(size_t skin) const { return joint_matrices(skin, kBindPose, 0.0); }
+
+  // Global transform of every node (16 floats each, column-major, node order) for the same
+  // pose selection; the hierarchy composition the joint matrices are built from.
+  std::vector<float> node_world_matrices(size_t animation, double time) const;
+
+  // The mesh and skin a node instances (-1 when none). A skinned mesh's node transform does
+  // not place the mesh (see above); its joints do.
+  int node_mesh(size_t node) const;
+  int node_skin(size_t node) const;
+
+  // Mesh data, for writing posed meshes: validated reads of a triangle primitive.
+  size_t mesh_count() const;
+  size_t primitive_count(size_t mesh) const;
+  // POSITION of the primitive: 3 floats per vertex.
+  std::vector<float> primitive_positions(size_t mesh, size_t primitive) const;
+  // Triangles of the primitive as index triples into its vertices (TRIANGLES, TRIANGLE_STRIP
+  // and TRIANGLE_FAN; non-indexed primitives get 0, 1, 2, ...). Other modes throw.
+  std::vector<uint32_t> primitive_triangles(size_t mesh, size_t primitive) const;
+
+ private:
+  struct Impl;
+  explicit GltfAnimation(std::unique_ptr<Impl> impl);
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace skelform::samples
