@@ -29,6 +29,15 @@
 // Doing it here also keeps Eigen out of the per-frame code entirely. The three coordinates are
 // solved together (interleaved), in double precision: Q has the condition number of a
 // squared Laplacian, so float would lose several digits on a few thousand vertices.
+//
+// The basis. The bilaplacian couples 2-rings, so the factor is dense-ish: about 100 entries
+// per column on a 2.5K-vertex closed surface (AMD ordering; we measured AMD of the 1-ring
+// pattern at 3x the fill), i.e. ~0.8 ms per substitution. The field is linear in the handle
+// displacements, δ_f = Σ_u G_u δ_u with G_u = −Q_ff⁻¹ Q_f,u, and interactive deformation
+// ([25]) uses a few handles, so when n_free·slots < 2·nnz(L) we precompute G in create (one
+// substitution per distinct handle) and a frame costs n_free·slots multiply-adds instead:
+// a fingertip drag on the 2K-vertex hand is then microseconds. Many handles (a region)
+// keep the substitution, whose cost does not grow with their number.
 #include "handles.h"
 
 #include <Eigen/Dense>
@@ -61,12 +70,13 @@ struct HandleSystem {
         coupling_weight(CallbackAllocator<double>(a)), permutation(CallbackAllocator<uint32_t>(a)),
         factor_offsets(CallbackAllocator<uint32_t>(a)), factor_rows(CallbackAllocator<uint32_t>(a)),
         factor_values(CallbackAllocator<double>(a)), factor_diagonal(CallbackAllocator<double>(a)),
-        slot_displacement(CallbackAllocator<double>(a)), work(CallbackAllocator<double>(a)) {}
+        basis(CallbackAllocator<double>(a)), slot_displacement(CallbackAllocator<double>(a)), work(CallbackAllocator<double>(a)) {}
 
   uint32_t vertex_count = 0;  // the deformable's control_vertex_count
   uint32_t free_count = 0;    // unknowns of the reduced system
   size_t handle_count = 0;    // entries of the caller's handle list (duplicates included)
   uint32_t slot_count = 0;    // distinct handle vertices
+  HandleSolvePath path = HandleSolvePath::substitution;
 
   Array<uint8_t> vertex_role;   // VertexRole per skeletal vertex
   Array<uint32_t> vertex_ref;   // see VertexRole
@@ -86,10 +96,13 @@ struct HandleSystem {
   Array<uint32_t> factor_rows;
   Array<double> factor_values;
   Array<double> factor_diagonal;   // D
+  // Path `basis`: G, free_count rows of slot_count entries (row f: the fields of every handle
+  // at unknown f). The factor and coupling arrays are released then.
+  Array<double> basis;
 
   // Solve scratch, sized at creation (the instance is single-threaded, handles.h).
   mutable Array<double> slot_displacement;  // 3 per slot
-  mutable Array<double> work;               // 3 per unknown
+  mutable Array<double> work;               // 3 per unknown (substitution path only)
 };
 
 namespace {
@@ -121,11 +134,56 @@ void build_adjacency(const Deformable& d, Array<uint32_t>& offsets, Array<uint32
   for (size_t k = 0; k < directed.size(); ++k) adjacency[k] = directed[k].second;  // sorted by source
 }
 
+// Solves L D Lᵀ x = y in place for `Width` interleaved right-hand sides (y already in the
+// factor's order).
+template <int Width>
+void substitute(const HandleSystem& s, double* y) {
+  const uint32_t m = s.free_count;
+  // L z = y, column-oriented: once z_j is final, push it into the rows below.
+  for (uint32_t j = 0; j < m; ++j) {
+    double z[Width];
+    for (int c = 0; c < Width; ++c) z[c] = y[size_t(Width) * j + c];
+    for (uint32_t k = s.factor_offsets[j]; k < s.factor_offsets[j + 1]; ++k) {
+      double* row = y + size_t(Width) * s.factor_rows[k];
+      const double l = s.factor_values[k];
+      for (int c = 0; c < Width; ++c) row[c] -= l * z[c];
+    }
+  }
+  // D w = z.
+  for (uint32_t j = 0; j < m; ++j) {
+    const double inverse = 1.0 / s.factor_diagonal[j];
+    for (int c = 0; c < Width; ++c) y[size_t(Width) * j + c] *= inverse;
+  }
+  // Lᵀ x = w: row j of Lᵀ is column j of L, a dot product with the later, final entries.
+  for (uint32_t j = m; j-- > 0;) {
+    double x[Width];
+    for (int c = 0; c < Width; ++c) x[c] = y[size_t(Width) * j + c];
+    for (uint32_t k = s.factor_offsets[j]; k < s.factor_offsets[j + 1]; ++k) {
+      const double* row = y + size_t(Width) * s.factor_rows[k];
+      const double l = s.factor_values[k];
+      for (int c = 0; c < Width; ++c) x[c] -= l * row[c];
+    }
+    for (int c = 0; c < Width; ++c) y[size_t(Width) * j + c] = x[c];
+  }
+}
+
+template <class T>
+void release(Array<T>& a) {
+  Array<T>(a.get_allocator()).swap(a);
+}
+
 }  // namespace
 
 HandleSystem* handle_system_create(const Deformable& d, const uint32_t* handle_control, size_t handle_count,
                                    const uint32_t* pinned_control, size_t pinned_count,
                                    const AllocatorRef& alloc) {
+  return handle_system_create_with(d, handle_control, handle_count, pinned_control, pinned_count, alloc,
+                                   HandleSolvePath::automatic);
+}
+
+HandleSystem* handle_system_create_with(const Deformable& d, const uint32_t* handle_control, size_t handle_count,
+                                        const uint32_t* pinned_control, size_t pinned_count,
+                                        const AllocatorRef& alloc, HandleSolvePath path) {
   const uint32_t n = d.control_vertex_count;
   if (handle_count == 0 || !handle_control) invalid("no handle");
   if (pinned_count > 0 && !pinned_control) invalid("pinned_count > 0 with no pinned array");
@@ -278,8 +336,36 @@ HandleSystem* handle_system_create(const Deformable& d, const uint32_t* handle_c
       }
     }
 
+    // Per-frame multiply-adds of each path (per coordinate): see the file comment.
+    const size_t substitution_cost = 2 * s->factor_rows.size() + s->coupling_slot.size() + 2 * size_t(free_count);
+    const size_t basis_cost = size_t(free_count) * s->slot_count;
+    if (path == HandleSolvePath::automatic)
+      path = basis_cost < substitution_cost ? HandleSolvePath::basis : HandleSolvePath::substitution;
+    s->path = path;
+    if (path == HandleSolvePath::basis) {
+      s->basis.assign(basis_cost, 0.0);
+      Array<double> field(free_count, 0.0, CallbackAllocator<double>(alloc));
+      for (uint32_t u = 0; u < s->slot_count; ++u) {
+        std::fill(field.begin(), field.end(), 0.0);
+        for (uint32_t f = 0; f < free_count; ++f)
+          for (uint32_t k = s->coupling_offsets[f]; k < s->coupling_offsets[f + 1]; ++k)
+            if (s->coupling_slot[k] == u) field[s->permutation[f]] += s->coupling_weight[k];
+        substitute<1>(*s, field.data());
+        for (uint32_t f = 0; f < free_count; ++f)
+          s->basis[size_t(f) * s->slot_count + u] = field[s->permutation[f]];
+      }
+      release(s->coupling_offsets);
+      release(s->coupling_slot);
+      release(s->coupling_weight);
+      release(s->permutation);
+      release(s->factor_offsets);
+      release(s->factor_rows);
+      release(s->factor_values);
+      release(s->factor_diagonal);
+    } else {
+      s->work.assign(size_t(free_count) * 3, 0.0);
+    }
     s->slot_displacement.assign(size_t(s->slot_count) * 3, 0.0);
-    s->work.assign(size_t(free_count) * 3, 0.0);
     return s;
   } catch (...) {
     destroy_object(alloc, s);
@@ -290,6 +376,8 @@ HandleSystem* handle_system_create(const Deformable& d, const uint32_t* handle_c
 void handle_system_destroy(HandleSystem* s, const AllocatorRef& alloc) { destroy_object(alloc, s); }
 
 size_t handle_system_handle_count(const HandleSystem& s) { return s.handle_count; }
+
+HandleSolvePath handle_system_path(const HandleSystem& s) { return s.path; }
 
 void handle_system_solve(const HandleSystem& s, const Deformable& d, const glm::vec3* handle_displacements,
                          glm::vec3* skeletal_out) {
@@ -307,59 +395,29 @@ void handle_system_solve(const HandleSystem& s, const Deformable& d, const glm::
     slot[3 * u + 2] += w * handle_displacements[i].z;
   }
 
-  // y = P b with b = −Q_fh δ_h.
-  for (uint32_t f = 0; f < m; ++f) {
-    double bx = 0.0, by = 0.0, bz = 0.0;
-    for (uint32_t k = s.coupling_offsets[f]; k < s.coupling_offsets[f + 1]; ++k) {
-      const double w = s.coupling_weight[k];
-      const double* h = slot + 3 * size_t(s.coupling_slot[k]);
-      bx += w * h[0];
-      by += w * h[1];
-      bz += w * h[2];
+  if (s.path == HandleSolvePath::substitution) {
+    // y = P b with b = −Q_fh δ_h, then x = L⁻ᵀ D⁻¹ L⁻¹ y.
+    for (uint32_t f = 0; f < m; ++f) {
+      double b[3] = {0.0, 0.0, 0.0};
+      for (uint32_t k = s.coupling_offsets[f]; k < s.coupling_offsets[f + 1]; ++k) {
+        const double w = s.coupling_weight[k];
+        const double* h = slot + 3 * size_t(s.coupling_slot[k]);
+        for (int c = 0; c < 3; ++c) b[c] += w * h[c];
+      }
+      double* target = y + 3 * size_t(s.permutation[f]);
+      for (int c = 0; c < 3; ++c) target[c] = b[c];
     }
-    double* target = y + 3 * size_t(s.permutation[f]);
-    target[0] = bx;
-    target[1] = by;
-    target[2] = bz;
-  }
-  // L z = y (column-oriented: once z_j is final, push it into the rows below).
-  for (uint32_t j = 0; j < m; ++j) {
-    const double zx = y[3 * j], zy = y[3 * j + 1], zz = y[3 * j + 2];
-    for (uint32_t k = s.factor_offsets[j]; k < s.factor_offsets[j + 1]; ++k) {
-      double* row = y + 3 * size_t(s.factor_rows[k]);
-      const double l = s.factor_values[k];
-      row[0] -= l * zx;
-      row[1] -= l * zy;
-      row[2] -= l * zz;
-    }
-  }
-  // D w = z.
-  for (uint32_t j = 0; j < m; ++j) {
-    const double inv = 1.0 / s.factor_diagonal[j];
-    y[3 * j] *= inv;
-    y[3 * j + 1] *= inv;
-    y[3 * j + 2] *= inv;
-  }
-  // Lᵀ x = w (row j of Lᵀ is column j of L: a dot product with the later, final entries).
-  for (uint32_t j = m; j-- > 0;) {
-    double sx = y[3 * j], sy = y[3 * j + 1], sz = y[3 * j + 2];
-    for (uint32_t k = s.factor_offsets[j]; k < s.factor_offsets[j + 1]; ++k) {
-      const double* row = y + 3 * size_t(s.factor_rows[k]);
-      const double l = s.factor_values[k];
-      sx -= l * row[0];
-      sy -= l * row[1];
-      sz -= l * row[2];
-    }
-    y[3 * j] = sx;
-    y[3 * j + 1] = sy;
-    y[3 * j + 2] = sz;
+    substitute<3>(s, y);
   }
 
   // S' = S + δ; the unknowns come back through Pᵀ: δ_f = x[permutation[f]].
   for (uint32_t v = 0; v < s.vertex_count; ++v) {
     const glm::dvec3 rest(d.skeletal_positions[v]);
     glm::dvec3 delta(0.0);
-    if (s.vertex_role[v] == kFree) {
+    if (s.vertex_role[v] == kFree && s.path == HandleSolvePath::basis) {
+      const double* g = s.basis.data() + size_t(s.vertex_ref[v]) * s.slot_count;
+      for (uint32_t u = 0; u < s.slot_count; ++u) delta += g[u] * glm::dvec3(slot[3 * u], slot[3 * u + 1], slot[3 * u + 2]);
+    } else if (s.vertex_role[v] == kFree) {
       const double* x = y + 3 * size_t(s.permutation[s.vertex_ref[v]]);
       delta = glm::dvec3(x[0], x[1], x[2]);
     } else if (s.vertex_role[v] == kHandle) {

@@ -11,9 +11,11 @@
 // the cotangent one). S' = S + δ.
 //
 // Cost model: handle_system_create builds and factorises the system once per handle set
-// (allocates; milliseconds for a few thousand control vertices); handle_system_solve only
-// substitutes into that factor (no allocation, no Eigen, well under a millisecond), so it is
-// safe in the per-frame path the C API promises allocation-free.
+// (allocates; tens of milliseconds for a few thousand control vertices); handle_system_solve
+// never allocates and never calls Eigen, so it is safe in the per-frame path the C API
+// promises allocation-free. It either substitutes into the stored factor, or, when the set has
+// few distinct handles, sums precomputed per-handle basis fields (the field is linear in the
+// handle displacements), whichever costs fewer operations per frame.
 //
 // Rules beyond the paper:
 // - A connected component of the skeletal mesh with no handle and no pinned vertex (and any
@@ -52,6 +54,21 @@ struct HandleSystem;
 HandleSystem* handle_system_create(const Deformable& d, const uint32_t* handle_control, size_t handle_count,
                                    const uint32_t* pinned_control, size_t pinned_count,
                                    const AllocatorRef& alloc);
+
+// How handle_system_solve evaluates the field (see the cost model above).
+enum class HandleSolvePath {
+  automatic,     // the cheaper of the two per frame (what handle_system_create uses)
+  substitution,  // forward/diagonal/backward substitution into the stored LDLᵀ factor
+  basis,         // one precomputed field per distinct handle vertex, summed
+};
+
+// handle_system_create with the path forced (tests and benchmarks compare the two).
+HandleSystem* handle_system_create_with(const Deformable& d, const uint32_t* handle_control, size_t handle_count,
+                                        const uint32_t* pinned_control, size_t pinned_count,
+                                        const AllocatorRef& alloc, HandleSolvePath path);
+
+// The path a system uses (never `automatic`).
+HandleSolvePath handle_system_path(const HandleSystem& s);
 
 // Releases a system made with the same allocator. NULL is ignored.
 void handle_system_destroy(HandleSystem* s, const AllocatorRef& alloc);
