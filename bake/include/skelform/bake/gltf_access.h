@@ -1,5 +1,7 @@
-// Validated reading of glTF 2.0 data through tinygltf, shared by the mesh loader and the glTF
-// baker so every accessor is checked the same way.
+// Validated reading of glTF 2.0 data through tinygltf, for the mesh loader and the glTF
+// baker. A thin layer over the runtime's reader (runtime/src/gltf_read.h), so the baker and
+// the runtime check every accessor the same way; this layer only turns its errors into
+// skelform::bake::Error of the same kind and message.
 //
 // tinygltf parses the JSON and resolves buffers but does not check that accessors fit their
 // bufferViews, that bufferViews fit their buffers, that component types match their semantic,
