@@ -1,0 +1,170 @@
+// The self-intersection metric (DESIGN.md "Metrics"): uniform-grid broad phase, separating-axis
+// narrow phase in double.
+#include "skelform/bake/self_intersection.h"
+
+#include <glm/geometric.hpp>
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <vector>
+
+namespace skelform::bake {
+namespace {
+
+// Does `axis` separate the two triangles (their projections' intervals do not meet)?
+bool separated_along(const Vec3& axis, const std::array<Vec3, 3>& a, const std::array<Vec3, 3>& b) {
+  const double pa0 = glm::dot(axis, a[0]), pa1 = glm::dot(axis, a[1]), pa2 = glm::dot(axis, a[2]);
+  const double pb0 = glm::dot(axis, b[0]), pb1 = glm::dot(axis, b[1]), pb2 = glm::dot(axis, b[2]);
+  const double min_a = std::min({pa0, pa1, pa2}), max_a = std::max({pa0, pa1, pa2});
+  const double min_b = std::min({pb0, pb1, pb2}), max_b = std::max({pb0, pb1, pb2});
+  return max_a < min_b || max_b < min_a;
+}
+
+struct Box {
+  Vec3 min, max;
+};
+
+bool boxes_overlap(const Box& p, const Box& q) {
+  return p.min.x <= q.max.x && q.min.x <= p.max.x && p.min.y <= q.max.y && q.min.y <= p.max.y &&
+         p.min.z <= q.max.z && q.min.z <= p.max.z;
+}
+
+}  // namespace
+
+bool triangles_intersect(const Vec3& a0, const Vec3& a1, const Vec3& a2, const Vec3& b0, const Vec3& b1,
+                         const Vec3& b2) {
+  // Translate to a common origin: the projections then lose less to cancellation.
+  const Vec3 origin = a0;
+  const std::array<Vec3, 3> a{Vec3(0.0), a1 - origin, a2 - origin};
+  const std::array<Vec3, 3> b{b0 - origin, b1 - origin, b2 - origin};
+  const std::array<Vec3, 3> edge_a{a[1] - a[0], a[2] - a[1], a[0] - a[2]};
+  const std::array<Vec3, 3> edge_b{b[1] - b[0], b[2] - b[1], b[0] - b[2]};
+  const Vec3 normal_a = glm::cross(edge_a[0], edge_a[1]);
+  const Vec3 normal_b = glm::cross(edge_b[0], edge_b[1]);
+
+  // Two convex polytopes are disjoint iff a separating axis exists among the face normals and
+  // edge-edge cross products; for flat (2-D) polytopes the in-plane edge normals are the
+  // "faces" too. A zero axis (parallel edges, degenerate triangle) separates nothing: skip.
+  auto separates = [&](const Vec3& axis) {
+    return glm::dot(axis, axis) > 0.0 && separated_along(axis, a, b);
+  };
+  if (separates(normal_a) || separates(normal_b)) return false;
+  for (const Vec3& ea : edge_a)
+    for (const Vec3& eb : edge_b)
+      if (separates(glm::cross(ea, eb))) return false;
+  for (const Vec3& ea : edge_a)
+    if (separates(glm::cross(normal_a, ea))) return false;
+  for (const Vec3& eb : edge_b)
+    if (separates(glm::cross(normal_b, eb))) return false;
+  return true;
+}
+
+size_t count_self_intersections(const TriangleMesh& mesh) {
+  const size_t triangle_count = mesh.triangles.size();
+  if (triangle_count < 2) return 0;
+
+  std::vector<Box> boxes(triangle_count);
+  Box all{Vec3(1e300), Vec3(-1e300)};
+  double extent_sum = 0.0;
+  for (size_t t = 0; t < triangle_count; ++t) {
+    const Triangle& tri = mesh.triangles[t];
+    const Vec3& p0 = mesh.positions[tri[0]];
+    const Vec3& p1 = mesh.positions[tri[1]];
+    const Vec3& p2 = mesh.positions[tri[2]];
+    boxes[t] = {glm::min(p0, glm::min(p1, p2)), glm::max(p0, glm::max(p1, p2))};
+    all.min = glm::min(all.min, boxes[t].min);
+    all.max = glm::max(all.max, boxes[t].max);
+    const Vec3 size = boxes[t].max - boxes[t].min;
+    extent_sum += std::max({size.x, size.y, size.z});
+  }
+  const Vec3 extent = all.max - all.min;
+  const double largest = std::max({extent.x, extent.y, extent.z});
+  if (!(largest > 0.0) || !std::isfinite(largest)) {
+    // Everything at one point (or non-finite input): test every pair (tiny or broken meshes).
+    size_t count = 0;
+    for (size_t s = 0; s < triangle_count; ++s)
+      for (size_t t = s + 1; t < triangle_count; ++t) {
+        const Triangle& p = mesh.triangles[s];
+        const Triangle& q = mesh.triangles[t];
+        bool adjacent = false;
+        for (uint32_t i : p)
+          for (uint32_t j : q) adjacent |= i == j;
+        if (!adjacent && triangles_intersect(mesh.positions[p[0]], mesh.positions[p[1]], mesh.positions[p[2]],
+                                             mesh.positions[q[0]], mesh.positions[q[1]], mesh.positions[q[2]]))
+          ++count;
+      }
+    return count;
+  }
+
+  // Cell about the mean triangle size, so a triangle covers a few cells; coarsened until the
+  // grid has at most ~4 cells per triangle (a surface fills few of a dense grid's cells).
+  double cell = std::max(extent_sum / static_cast<double>(triangle_count), largest * 1e-6);
+  const double max_cells = 4.0 * static_cast<double>(triangle_count) + 64.0;
+  std::array<int64_t, 3> dims{};
+  for (int attempt = 0; attempt < 64; ++attempt) {
+    for (int k = 0; k < 3; ++k) dims[k] = std::max<int64_t>(1, static_cast<int64_t>(std::ceil(extent[k] / cell)));
+    const double cells = static_cast<double>(dims[0]) * static_cast<double>(dims[1]) * static_cast<double>(dims[2]);
+    if (cells <= max_cells) break;
+    cell *= std::cbrt(cells / max_cells) * 1.01;
+  }
+  auto cell_of = [&](double x, int k) {
+    const int64_t c = static_cast<int64_t>((x - all.min[k]) / cell);
+    return std::clamp<int64_t>(c, 0, dims[k] - 1);
+  };
+  struct CellRange {
+    std::array<int64_t, 3> lo, hi;
+  };
+  std::vector<CellRange> ranges(triangle_count);
+  const size_t cell_count = static_cast<size_t>(dims[0] * dims[1] * dims[2]);
+  std::vector<size_t> offsets(cell_count + 1, 0);
+  auto linear = [&](int64_t x, int64_t y, int64_t z) { return static_cast<size_t>((z * dims[1] + y) * dims[0] + x); };
+  for (size_t t = 0; t < triangle_count; ++t) {
+    for (int k = 0; k < 3; ++k) {
+      ranges[t].lo[k] = cell_of(boxes[t].min[k], k);
+      ranges[t].hi[k] = cell_of(boxes[t].max[k], k);
+    }
+    const CellRange& r = ranges[t];
+    for (int64_t z = r.lo[2]; z <= r.hi[2]; ++z)
+      for (int64_t y = r.lo[1]; y <= r.hi[1]; ++y)
+        for (int64_t x = r.lo[0]; x <= r.hi[0]; ++x) ++offsets[linear(x, y, z) + 1];
+  }
+  for (size_t c = 0; c < cell_count; ++c) offsets[c + 1] += offsets[c];
+  std::vector<uint32_t> entries(offsets[cell_count]);
+  std::vector<size_t> fill(offsets.begin(), offsets.end() - 1);
+  for (size_t t = 0; t < triangle_count; ++t) {
+    const CellRange& r = ranges[t];
+    for (int64_t z = r.lo[2]; z <= r.hi[2]; ++z)
+      for (int64_t y = r.lo[1]; y <= r.hi[1]; ++y)
+        for (int64_t x = r.lo[0]; x <= r.hi[0]; ++x) entries[fill[linear(x, y, z)]++] = static_cast<uint32_t>(t);
+  }
+
+  size_t count = 0;
+  for (int64_t z = 0; z < dims[2]; ++z)
+    for (int64_t y = 0; y < dims[1]; ++y)
+      for (int64_t x = 0; x < dims[0]; ++x) {
+        const size_t c = linear(x, y, z);
+        for (size_t i = offsets[c]; i < offsets[c + 1]; ++i) {
+          const uint32_t s = entries[i];
+          const Triangle& p = mesh.triangles[s];
+          for (size_t j = i + 1; j < offsets[c + 1]; ++j) {
+            const uint32_t t = entries[j];
+            // Each pair once: in the first cell of the overlap of both cell ranges.
+            if (std::max(ranges[s].lo[0], ranges[t].lo[0]) != x || std::max(ranges[s].lo[1], ranges[t].lo[1]) != y ||
+                std::max(ranges[s].lo[2], ranges[t].lo[2]) != z)
+              continue;
+            if (!boxes_overlap(boxes[s], boxes[t])) continue;
+            const Triangle& q = mesh.triangles[t];
+            if (p[0] == q[0] || p[0] == q[1] || p[0] == q[2] || p[1] == q[0] || p[1] == q[1] || p[1] == q[2] ||
+                p[2] == q[0] || p[2] == q[1] || p[2] == q[2])
+              continue;
+            if (triangles_intersect(mesh.positions[p[0]], mesh.positions[p[1]], mesh.positions[p[2]],
+                                    mesh.positions[q[0]], mesh.positions[q[1]], mesh.positions[q[2]]))
+              ++count;
+          }
+        }
+      }
+  return count;
+}
+
+}  // namespace skelform::bake
