@@ -1,0 +1,372 @@
+// The instance half of the C API (skelform.h "Instances", "Evaluation"): argument checks,
+// driver selection, the frame's stages in order (instance.h), and the strided copy into the
+// caller's vertex buffers. Nothing throws past this file: every entry point catches at the
+// boundary and turns the exception into an sf_result plus the instance's message.
+#include "handles.h"
+#include "instance.h"
+
+#include <cmath>
+#include <cstdarg>
+#include <cstdio>
+#include <cstring>
+#include <new>
+#include <stdexcept>
+
+using namespace skelform::runtime;
+
+sf_instance::sf_instance(const sf_asset& owner, const Deformable& d)
+    : asset(&owner), deformable(&d), allocator(owner.allocator), joints(owner.allocator), handles(owner.allocator),
+      skeletal(CallbackAllocator<glm::vec3>(owner.allocator)),
+      normal_matrices(CallbackAllocator<glm::mat3>(owner.allocator)),
+      control(CallbackAllocator<glm::vec3>(owner.allocator)),
+      previous_skeletal(CallbackAllocator<glm::vec3>(owner.allocator)),
+      previous_control(CallbackAllocator<glm::vec3>(owner.allocator)),
+      step_normals_a(CallbackAllocator<glm::vec3>(owner.allocator)),
+      step_normals_b(CallbackAllocator<glm::vec3>(owner.allocator)),
+      rest_normal_offset(CallbackAllocator<glm::vec3>(owner.allocator)),
+      refined_positions(CallbackAllocator<glm::vec3>(owner.allocator)),
+      refined_normals(CallbackAllocator<glm::vec3>(owner.allocator)),
+      dense_positions(CallbackAllocator<glm::vec3>(owner.allocator)),
+      dense_normals(CallbackAllocator<glm::vec3>(owner.allocator)),
+      dense_tangents(CallbackAllocator<glm::vec4>(owner.allocator)) {
+  // Every buffer of every stage, sized once: evaluation and output never allocate.
+  JointAffine identity_affine;
+  JointDualQuaternion identity_dq;
+  prepare_joint(glm::mat4(1.0f), identity_affine, identity_dq);
+  joints.affine.assign(d.joint_count, identity_affine);
+  joints.dual_quaternion.assign(d.joint_count, identity_dq);
+  const size_t control_count = d.control_vertex_count;
+  skeletal.resize(control_count);
+  normal_matrices.resize(control_count);
+  control.resize(control_count);
+  previous_skeletal.resize(control_count);
+  previous_control.resize(control_count);
+  step_normals_a.resize(control_count);
+  step_normals_b.resize(control_count);
+  rest_normal_offset.resize(control_count);
+  rest_normal_offsets(d, rest_normal_offset.data());
+  refined_positions.resize(d.refined_vertex_count);
+  refined_normals.resize(d.refined_vertex_count);
+  dense_positions.resize(d.vertex_count);
+  dense_normals.resize(d.vertex_count);
+  bool any_tangents = false;
+  for (const PrimitiveRecord& p : d.primitives) any_tangents = any_tangents || p.has_tangents;
+  if (any_tangents) dense_tangents.resize(d.vertex_count);
+}
+
+sf_instance::~sf_instance() { handle_system_destroy(handles.system, allocator); }
+
+namespace {
+
+sf_result fail(const sf_instance* instance, sf_result result, const char* format, ...)
+#if defined(__GNUC__)
+    __attribute__((format(printf, 3, 4)))
+#endif
+    ;
+
+sf_result fail(const sf_instance* instance, sf_result result, const char* format, ...) {
+  va_list args;
+  va_start(args, format);
+  std::vsnprintf(instance->message, sizeof instance->message, format, args);
+  va_end(args);
+  return result;
+}
+
+// Runs `body` with every exception turned into a result and a message on the instance.
+template <class Body>
+sf_result guarded(const sf_instance* instance, const char* call, Body&& body) {
+  try {
+    return body();
+  } catch (const std::bad_alloc&) {
+    return fail(instance, SF_ERROR_OUT_OF_MEMORY, "%s: out of memory", call);
+  } catch (const std::invalid_argument& e) {
+    return fail(instance, SF_ERROR_INVALID_ARGUMENT, "%s: %s", call, e.what());
+  } catch (const std::exception& e) {
+    return fail(instance, SF_ERROR_INVALID_DATA, "%s: %s", call, e.what());
+  } catch (...) {
+    return fail(instance, SF_ERROR_INVALID_DATA, "%s: unknown error", call);
+  }
+}
+
+bool all_finite(const float* values, size_t count) {
+  for (size_t i = 0; i < count; ++i)
+    if (!std::isfinite(values[i])) return false;
+  return true;
+}
+
+// Reads `floats` floats of element `i` of a strided array (memcpy: the caller's stride need
+// not keep floats aligned).
+void read_element(const float* base, size_t stride, size_t i, float* out, size_t floats) {
+  std::memcpy(out, reinterpret_cast<const unsigned char*>(base) + i * stride, floats * sizeof(float));
+}
+
+DenseOutput dense_output(sf_instance& instance) {
+  return {instance.dense_positions.data(), instance.dense_normals.data(),
+          instance.dense_tangents.empty() ? nullptr : instance.dense_tangents.data()};
+}
+
+sf_result evaluate(sf_instance& instance, const sf_eval_options& options) {
+  const Deformable& d = *instance.deformable;
+  if (options.method > SF_METHOD_DQS)
+    return fail(&instance, SF_ERROR_INVALID_ARGUMENT, "sf_instance_evaluate: unknown method %u", options.method);
+  if (options.skeleton_skinning > SF_SKELETON_DQS)
+    return fail(&instance, SF_ERROR_INVALID_ARGUMENT, "sf_instance_evaluate: unknown skeleton_skinning %u",
+                options.skeleton_skinning);
+  if (options.reconstruction > SF_RECONSTRUCTION_PAPER)
+    return fail(&instance, SF_ERROR_INVALID_ARGUMENT, "sf_instance_evaluate: unknown reconstruction %u",
+                options.reconstruction);
+  const uint32_t known_flags = SF_EVAL_FROM_REST | SF_EVAL_SKIP_NORMALS;
+  if (options.flags & ~known_flags)
+    return fail(&instance, SF_ERROR_INVALID_ARGUMENT, "sf_instance_evaluate: unknown flags 0x%x",
+                options.flags & ~known_flags);
+  if (options.fairing_flags != 0 || options.fairing_iterations != 0 || options.fairing_step != 0.0f ||
+      options.intersection_step != 0.0f || options.intersection_grid != 0)
+    return fail(&instance, SF_ERROR_UNSUPPORTED,
+                "sf_instance_evaluate: fairing (paper eqs. (4), (5)) is not implemented in this runtime; the "
+                "fairing_* and intersection_* options must be zero");
+  if (instance.driver == Driver::handles && !instance.handles.system)
+    return fail(&instance, SF_ERROR_NOT_READY, "sf_instance_evaluate: the handle driver has no handle set");
+
+  const bool with_normals = (options.flags & SF_EVAL_SKIP_NORMALS) == 0;
+  const DenseOutput out = dense_output(instance);
+
+  if (options.method != SF_METHOD_SKELFORM) {
+    if (instance.driver != Driver::skin)
+      return fail(&instance, SF_ERROR_UNSUPPORTED,
+                  "sf_instance_evaluate: the LBS/DQS baselines deform by the skin, but the handle driver is selected");
+    if (d.joint_count == 0 || d.influences == 0)
+      return fail(&instance, SF_ERROR_UNSUPPORTED, "sf_instance_evaluate: the LBS/DQS baselines need a skinned deformable");
+    dense_skinning(d, instance.joints, options.method == SF_METHOD_LBS ? Blend::linear : Blend::dual_quaternion,
+                   with_normals, out);
+  } else {
+    // 1. S → S'.
+    if (instance.driver == Driver::skin)
+      drive_skeleton_skin(d, instance.joints,
+                          options.skeleton_skinning == SF_SKELETON_DQS ? Blend::dual_quaternion : Blend::linear,
+                          instance.skeletal.data(), instance.normal_matrices.data());
+    else
+      drive_skeleton_handles(d, instance.handles, instance.skeletal.data());
+    // 2. S' → M. Carried normals need the skin's per-vertex transform; the handle driver has
+    // none and uses the paper's homotopy (skelform.h, SF_RECONSTRUCTION_CARRIED).
+    if (options.reconstruction == SF_RECONSTRUCTION_CARRIED && instance.driver == Driver::skin) {
+      reconstruct_carried(d, instance.skeletal.data(), instance.normal_matrices.data(), instance.control.data());
+    } else {
+      const uint32_t steps = options.homotopy_steps == 0 ? 3u : options.homotopy_steps;
+      const bool incremental = (options.flags & SF_EVAL_FROM_REST) == 0 && instance.has_previous;
+      const glm::vec3* offset = instance.rest_normal_offset.data();
+      if (incremental)
+        reconstruct_homotopy(d, offset, instance.previous_skeletal.data(), instance.previous_control.data(), nullptr,
+                             instance.skeletal.data(), steps, instance.step_normals_a.data(),
+                             instance.step_normals_b.data(), instance.control.data());
+      else
+        reconstruct_homotopy(d, offset, d.skeletal_positions.data(), d.control_positions.data(),
+                             d.control_normals.data(), instance.skeletal.data(), steps,
+                             instance.step_normals_a.data(), instance.step_normals_b.data(), instance.control.data());
+    }
+    // 3. Fairing (flows (4), (5)): the hook of the next issue.
+    fair(d, instance.skeletal.data(), instance.control.data());
+    // 4. Refine and displace.
+    displace(d, instance.control.data(), instance.refined_positions.data(), instance.refined_normals.data(),
+             with_normals, out);
+    // This evaluation's S' and M are the next incremental evaluation's start. Swapping
+    // vectors of one allocator moves pointers only: no allocation.
+    instance.previous_skeletal.swap(instance.skeletal);
+    instance.previous_control.swap(instance.control);
+    instance.has_previous = true;
+  }
+  instance.evaluated = true;
+  instance.normals_valid = with_normals;
+  return SF_OK;
+}
+
+// Copies one element per vertex from `source` to the caller's strided stream. Only the
+// element bytes are written; the gaps of a larger stride are never touched.
+template <class Element>
+void write_stream(float* destination, size_t stride, const Element* source, size_t count) {
+  unsigned char* out = reinterpret_cast<unsigned char*>(destination);
+  for (size_t i = 0; i < count; ++i) std::memcpy(out + i * stride, &source[i], sizeof(Element));
+}
+
+}  // namespace
+
+extern "C" {
+
+sf_result sf_instance_create(const sf_asset* asset, uint32_t deformable, sf_instance** out_instance) {
+  if (!out_instance) return SF_ERROR_INVALID_ARGUMENT;
+  *out_instance = nullptr;
+  if (!asset || deformable >= asset->deformables.size()) return SF_ERROR_INVALID_ARGUMENT;
+  try {
+    *out_instance = create_object<sf_instance>(asset->allocator, *asset, asset->deformables[deformable]);
+    return SF_OK;
+  } catch (const std::bad_alloc&) {
+    return SF_ERROR_OUT_OF_MEMORY;
+  } catch (...) {
+    return SF_ERROR_INVALID_DATA;
+  }
+}
+
+void sf_instance_destroy(sf_instance* instance) {
+  if (!instance) return;
+  const AllocatorRef allocator = instance->allocator;  // outlives the object it lives in
+  destroy_object(allocator, instance);
+}
+
+const char* sf_instance_last_error(const sf_instance* instance) { return instance ? instance->message : ""; }
+
+sf_result sf_instance_set_joint_matrices(sf_instance* instance, const float* matrices, size_t count,
+                                         size_t stride_bytes) {
+  if (!instance) return SF_ERROR_INVALID_ARGUMENT;
+  return guarded(instance, "sf_instance_set_joint_matrices", [&]() -> sf_result {
+    const Deformable& d = *instance->deformable;
+    if (count != d.joint_count)
+      return fail(instance, SF_ERROR_INVALID_ARGUMENT,
+                  "sf_instance_set_joint_matrices: the skin has %u joints, %zu matrices given", d.joint_count, count);
+    if (count > 0 && !matrices)
+      return fail(instance, SF_ERROR_INVALID_ARGUMENT, "sf_instance_set_joint_matrices: matrices is NULL");
+    const size_t stride = stride_bytes == 0 ? 16 * sizeof(float) : stride_bytes;
+    if (stride < 16 * sizeof(float))
+      return fail(instance, SF_ERROR_INVALID_ARGUMENT,
+                  "sf_instance_set_joint_matrices: stride %zu is smaller than a 4x4 float matrix (64)", stride_bytes);
+    // Check all before changing any: a refused call leaves the previous pose in place.
+    for (size_t j = 0; j < count; ++j) {
+      float m[16];
+      read_element(matrices, stride, j, m, 16);
+      if (!all_finite(m, 16))
+        return fail(instance, SF_ERROR_INVALID_ARGUMENT,
+                    "sf_instance_set_joint_matrices: matrix %zu has a NaN or infinite element", j);
+    }
+    for (size_t j = 0; j < count; ++j) {
+      glm::mat4 m;
+      read_element(matrices, stride, j, &m[0][0], 16);
+      prepare_joint(m, instance->joints.affine[j], instance->joints.dual_quaternion[j]);
+    }
+    instance->driver = Driver::skin;
+    return SF_OK;
+  });
+}
+
+sf_result sf_instance_set_handle_set(sf_instance* instance, const uint32_t* handles, size_t handle_count,
+                                     const uint32_t* pinned, size_t pinned_count) {
+  if (!instance) return SF_ERROR_INVALID_ARGUMENT;
+  return guarded(instance, "sf_instance_set_handle_set", [&]() -> sf_result {
+    const Deformable& d = *instance->deformable;
+    if (handle_count == 0 || !handles)
+      return fail(instance, SF_ERROR_INVALID_ARGUMENT, "sf_instance_set_handle_set: no handle given");
+    if (pinned_count > 0 && !pinned)
+      return fail(instance, SF_ERROR_INVALID_ARGUMENT, "sf_instance_set_handle_set: pinned is NULL");
+    // Original vertex ids → the control vertices they move (Deformable::handle_control_vertex).
+    Array<uint32_t> handle_control{CallbackAllocator<uint32_t>(instance->allocator)};
+    Array<uint32_t> pinned_control{CallbackAllocator<uint32_t>(instance->allocator)};
+    handle_control.resize(handle_count);
+    pinned_control.resize(pinned_count);
+    for (size_t i = 0; i < handle_count; ++i) {
+      if (handles[i] >= d.vertex_count)
+        return fail(instance, SF_ERROR_INVALID_ARGUMENT,
+                    "sf_instance_set_handle_set: handle %zu is vertex %u, the deformable has %u", i, handles[i],
+                    d.vertex_count);
+      handle_control[i] = d.handle_control_vertex[handles[i]];
+    }
+    for (size_t i = 0; i < pinned_count; ++i) {
+      if (pinned[i] >= d.vertex_count)
+        return fail(instance, SF_ERROR_INVALID_ARGUMENT,
+                    "sf_instance_set_handle_set: pinned %zu is vertex %u, the deformable has %u", i, pinned[i],
+                    d.vertex_count);
+      pinned_control[i] = d.handle_control_vertex[pinned[i]];
+    }
+    // A handle and a pin on one control vertex would ask it both to move and to stay.
+    for (size_t i = 0; i < handle_count; ++i)
+      for (size_t k = 0; k < pinned_count; ++k)
+        if (handle_control[i] == pinned_control[k])
+          return fail(instance, SF_ERROR_INVALID_ARGUMENT,
+                      "sf_instance_set_handle_set: handle vertex %u and pinned vertex %u move the same skeletal "
+                      "vertex %u",
+                      handles[i], pinned[k], handle_control[i]);
+    // Build the new set completely before replacing the old one: a failure keeps the old.
+    HandleState next(instance->allocator);
+    next.original.assign(handles, handles + handle_count);
+    next.targets.resize(handle_count);
+    for (size_t i = 0; i < handle_count; ++i) next.targets[i] = d.rest_positions[handles[i]];  // at rest
+    next.displacements.resize(handle_count);
+    next.system = handle_system_create(d, handle_control.data(), handle_count, pinned_control.data(), pinned_count,
+                                       instance->allocator);
+    handle_system_destroy(instance->handles.system, instance->allocator);
+    instance->handles.system = next.system;
+    instance->handles.original.swap(next.original);
+    instance->handles.targets.swap(next.targets);
+    instance->handles.displacements.swap(next.displacements);
+    return SF_OK;
+  });
+}
+
+sf_result sf_instance_set_handle_targets(sf_instance* instance, const float* targets, size_t count,
+                                         size_t stride_bytes) {
+  if (!instance) return SF_ERROR_INVALID_ARGUMENT;
+  return guarded(instance, "sf_instance_set_handle_targets", [&]() -> sf_result {
+    HandleState& handles = instance->handles;
+    if (!handles.system)
+      return fail(instance, SF_ERROR_NOT_READY, "sf_instance_set_handle_targets: no handle set (sf_instance_set_handle_set)");
+    if (count != handles.original.size())
+      return fail(instance, SF_ERROR_INVALID_ARGUMENT, "sf_instance_set_handle_targets: the set has %zu handles, %zu targets given",
+                  handles.original.size(), count);
+    if (!targets) return fail(instance, SF_ERROR_INVALID_ARGUMENT, "sf_instance_set_handle_targets: targets is NULL");
+    const size_t stride = stride_bytes == 0 ? 3 * sizeof(float) : stride_bytes;
+    if (stride < 3 * sizeof(float))
+      return fail(instance, SF_ERROR_INVALID_ARGUMENT, "sf_instance_set_handle_targets: stride %zu is smaller than 12",
+                  stride_bytes);
+    for (size_t i = 0; i < count; ++i) {
+      float t[3];
+      read_element(targets, stride, i, t, 3);
+      if (!all_finite(t, 3))
+        return fail(instance, SF_ERROR_INVALID_ARGUMENT, "sf_instance_set_handle_targets: target %zu is not finite", i);
+    }
+    for (size_t i = 0; i < count; ++i) read_element(targets, stride, i, &handles.targets[i].x, 3);
+    instance->driver = Driver::handles;
+    return SF_OK;
+  });
+}
+
+sf_result sf_instance_evaluate(sf_instance* instance, const sf_eval_options* options) {
+  if (!instance) return SF_ERROR_INVALID_ARGUMENT;
+  return guarded(instance, "sf_instance_evaluate", [&]() -> sf_result {
+    const sf_eval_options defaults{};
+    return evaluate(*instance, options ? *options : defaults);
+  });
+}
+
+sf_result sf_instance_write(const sf_instance* instance, uint32_t primitive, const sf_vertex_output* output) {
+  if (!instance) return SF_ERROR_INVALID_ARGUMENT;
+  return guarded(instance, "sf_instance_write", [&]() -> sf_result {
+    const Deformable& d = *instance->deformable;
+    if (!output) return fail(instance, SF_ERROR_INVALID_ARGUMENT, "sf_instance_write: output is NULL");
+    if (primitive >= d.primitives.size())
+      return fail(instance, SF_ERROR_INVALID_ARGUMENT, "sf_instance_write: primitive %u, the deformable has %zu",
+                  primitive, d.primitives.size());
+    if (!instance->evaluated)
+      return fail(instance, SF_ERROR_NOT_READY, "sf_instance_write: nothing evaluated yet (sf_instance_evaluate)");
+    const PrimitiveRecord& p = d.primitives[primitive];
+    if (output->vertex_capacity < p.vertex_count)
+      return fail(instance, SF_ERROR_INVALID_ARGUMENT, "sf_instance_write: capacity %zu, the primitive has %u vertices",
+                  output->vertex_capacity, p.vertex_count);
+    const size_t position_stride = output->position_stride ? output->position_stride : 12;
+    const size_t normal_stride = output->normal_stride ? output->normal_stride : 12;
+    const size_t tangent_stride = output->tangent_stride ? output->tangent_stride : 16;
+    if ((output->positions && position_stride < 12) || (output->normals && normal_stride < 12) ||
+        (output->tangents && tangent_stride < 16))
+      return fail(instance, SF_ERROR_INVALID_ARGUMENT,
+                  "sf_instance_write: a stride is smaller than its element (12 bytes, 16 for tangents)");
+    if (output->tangents && !p.has_tangents)
+      return fail(instance, SF_ERROR_UNSUPPORTED, "sf_instance_write: primitive %u has no authored tangents", primitive);
+    const size_t first = p.first_vertex, count = p.vertex_count;
+    if (output->positions)
+      write_stream(output->positions, position_stride, instance->dense_positions.data() + first, count);
+    // After an evaluation with SF_EVAL_SKIP_NORMALS the normal streams are left as they are.
+    if (instance->normals_valid) {
+      if (output->normals) write_stream(output->normals, normal_stride, instance->dense_normals.data() + first, count);
+      if (output->tangents)
+        write_stream(output->tangents, tangent_stride, instance->dense_tangents.data() + first, count);
+    }
+    return SF_OK;
+  });
+}
+
+}  // extern "C"

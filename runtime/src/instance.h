@@ -1,0 +1,144 @@
+// One character's mutable state (sf_instance) and the stages of an evaluation, in frame order
+// (DESIGN.md "Runtime pipeline"; one file per stage):
+//
+//   drive_skeleton.cpp  S → S'           skin driver (LBS/DQS of the skeletal vertices) or handles
+//   reconstruct.cpp     S' → M           M = S' + d·N, carried normals or the paper's homotopy (2)/(3)
+//   fair() below        M → M''          flows (4), (5): a no-op hook until the fairing ships
+//   displace.cpp        M'' → dense      Loop stencils, DSS binding, carried normals/tangents
+//   dense_skinning.cpp  baselines        SF_METHOD_LBS / SF_METHOD_DQS on the original vertices
+//   api_instance.cpp    the C API; sf_instance_write copies into the caller's buffers
+//
+// Every buffer an evaluation touches is allocated in sf_instance_create (handle sets
+// excepted, by the API's contract), so evaluation and output never allocate.
+#pragma once
+
+#include "asset.h"
+#include "memory.h"
+#include "skin_blend.h"
+
+#include <glm/mat3x3.hpp>
+#include <glm/vec3.hpp>
+#include <glm/vec4.hpp>
+
+#include <cstdint>
+
+namespace skelform::runtime {
+
+struct HandleSystem;  // handles.h
+
+enum class Driver : uint8_t {
+  skin,     // joint matrices (identity at creation)
+  handles,  // free-form handles (after sf_instance_set_handle_targets)
+};
+
+// The skin as prepared from the caller's joint matrices (skin_blend.h).
+struct JointTransforms {
+  explicit JointTransforms(const AllocatorRef& a)
+      : affine(CallbackAllocator<JointAffine>(a)), dual_quaternion(CallbackAllocator<JointDualQuaternion>(a)) {}
+  Array<JointAffine> affine;
+  Array<JointDualQuaternion> dual_quaternion;
+};
+
+// The current handle set (sf_instance_set_handle_set): the caller's original vertex ids and
+// targets. The system gets one displacement per caller handle; handles collapsing onto one
+// control vertex (a glTF seam) are averaged there by handles.h.
+struct HandleState {
+  explicit HandleState(const AllocatorRef& a)
+      : original(CallbackAllocator<uint32_t>(a)), targets(CallbackAllocator<glm::vec3>(a)),
+        displacements(CallbackAllocator<glm::vec3>(a)) {}
+  HandleSystem* system = nullptr;
+  Array<uint32_t> original;        // per handle: original (dense) vertex id
+  Array<glm::vec3> targets;        // per handle, as last set
+  Array<glm::vec3> displacements;  // per handle: target − rest position (solve input)
+  bool has_targets = false;
+};
+
+// Which skinning blends the skeletal vertices (SF_SKELETON_*) and the dense baselines.
+enum class Blend : uint8_t { linear, dual_quaternion };
+
+// ---- Stages (each in its own file) ---------------------------------------------------------
+
+// drive_skeleton.cpp. Skin driver (DESIGN.md runtime step 1): every skeletal vertex S_i moved
+// by the blend of its control influences; `normal_matrices[i]` receives the matrix carrying
+// its rest normal (inverse transpose of the blended linear part, up to a positive factor).
+void drive_skeleton_skin(const Deformable& d, const JointTransforms& joints, Blend blend, glm::vec3* skeletal_out,
+                         glm::mat3* normal_matrices);
+// Handle driver: S' = S + the smooth displacement field of the current targets (handles.h).
+void drive_skeleton_handles(const Deformable& d, HandleState& handles, glm::vec3* skeletal_out);
+
+// reconstruct.cpp. Carried normals, one step: M_i = S'_i + d_i·normalize(K_i·N_i).
+void reconstruct_carried(const Deformable& d, const glm::vec3* skeletal, const glm::mat3* normal_matrices,
+                         glm::vec3* control_out);
+// Per control vertex N_rest − N_area(M_rest): what the homotopy adds to its recomputed
+// normals so that they equal the bake's at rest (reconstruct.cpp says why). Once per instance.
+void rest_normal_offsets(const Deformable& d, glm::vec3* offsets);
+// The paper's homotopy (2)/(3) from (start_skeletal, start_control, start_normals) to S_L =
+// `skeletal`: L steps, normals recomputed from each step. `start_normals` may be null (they
+// are then computed from start_control). `normals_a`/`normals_b` are scratch (control count).
+void reconstruct_homotopy(const Deformable& d, const glm::vec3* rest_offset, const glm::vec3* start_skeletal,
+                          const glm::vec3* start_control, const glm::vec3* start_normals, const glm::vec3* skeletal,
+                          uint32_t steps, glm::vec3* normals_a, glm::vec3* normals_b, glm::vec3* control_out);
+
+// Stage 3, fairing: flows (4) ∂M/∂t = −α∆²M − F − V (folds and protrusions) and (5)
+// ∂M/∂t = −f∇f − W∆²M (self-intersections), warm-started from the previous evaluation within
+// a per-evaluation budget (DESIGN.md runtime step 3). A hook that does nothing yet: the next
+// issue fills it (fair.h's fair_run). Until then sf_instance_evaluate refuses non-zero
+// fairing options with SF_ERROR_UNSUPPORTED, so no caller can believe it ran.
+inline void fair(const Deformable& /*d*/, const glm::vec3* /*skeletal*/, glm::vec3* /*control*/) {}
+
+// displace.cpp. Refines the control mesh and places every dense vertex from its DSS binding;
+// with `with_normals`, also normals (and tangents where authored).
+struct DenseOutput {
+  glm::vec3* positions;
+  glm::vec3* normals;
+  glm::vec4* tangents;  // may be null when no primitive has tangents
+};
+void displace(const Deformable& d, const glm::vec3* control, glm::vec3* refined_positions, glm::vec3* refined_normals,
+              bool with_normals, const DenseOutput& out);
+
+// dense_skinning.cpp. The baselines on the original vertices (dense_joints/dense_weights).
+void dense_skinning(const Deformable& d, const JointTransforms& joints, Blend blend, bool with_normals,
+                    const DenseOutput& out);
+
+}  // namespace skelform::runtime
+
+// The public opaque type.
+struct sf_instance {
+  sf_instance(const sf_asset& owner, const skelform::runtime::Deformable& d);
+  ~sf_instance();
+  sf_instance(const sf_instance&) = delete;
+  sf_instance& operator=(const sf_instance&) = delete;
+
+  const sf_asset* asset;
+  const skelform::runtime::Deformable* deformable;
+  skelform::runtime::AllocatorRef allocator;
+
+  // Input.
+  skelform::runtime::Driver driver = skelform::runtime::Driver::skin;
+  skelform::runtime::JointTransforms joints;
+  skelform::runtime::HandleState handles;
+
+  // Coarse state. `skeletal`/`control` are this evaluation's S' and M; `previous_*` the last
+  // SF_METHOD_SKELFORM evaluation's (the incremental start), swapped in after each one.
+  skelform::runtime::Array<glm::vec3> skeletal;
+  skelform::runtime::Array<glm::mat3> normal_matrices;
+  skelform::runtime::Array<glm::vec3> control;
+  skelform::runtime::Array<glm::vec3> previous_skeletal;
+  skelform::runtime::Array<glm::vec3> previous_control;
+  skelform::runtime::Array<glm::vec3> step_normals_a;
+  skelform::runtime::Array<glm::vec3> step_normals_b;
+  skelform::runtime::Array<glm::vec3> rest_normal_offset;  // rest_normal_offsets()
+  bool has_previous = false;
+
+  // Refined surface and the dense result sf_instance_write copies out.
+  skelform::runtime::Array<glm::vec3> refined_positions;
+  skelform::runtime::Array<glm::vec3> refined_normals;
+  skelform::runtime::Array<glm::vec3> dense_positions;
+  skelform::runtime::Array<glm::vec3> dense_normals;
+  skelform::runtime::Array<glm::vec4> dense_tangents;  // empty when no primitive has tangents
+  bool evaluated = false;
+  bool normals_valid = false;
+
+  // Last error message; mutable because sf_instance_write (const) reports into it too.
+  mutable char message[256] = {};
+};
