@@ -222,6 +222,11 @@ class AccessorReader {
   const std::string& name_;
 };
 
+// URIs are taken literally. Older tinygltf versions expanded them with wordexp() (`~`, `$VAR`,
+// even `$(command)` from a file's URI); 2.7's default no longer does, and this keeps it so
+// whichever tinygltf the helper is linked against.
+std::string literal_path(const std::string& path, void*) { return path; }
+
 // Images are never decoded: the helper needs geometry and animation only.
 bool skip_image(tinygltf::Image*, const int, std::string*, std::string*, int, int, const unsigned char*, int, void*) {
   return true;
@@ -559,6 +564,8 @@ GltfAnimation GltfAnimation::load_memory(const std::string& bytes, const std::st
   impl->name = name;
   tinygltf::TinyGLTF loader;
   loader.SetImageLoader(skip_image, nullptr);
+  loader.SetFsCallbacks(
+      tinygltf::FsCallbacks{tinygltf::FileExists, literal_path, tinygltf::ReadWholeFile, tinygltf::WriteWholeFile, nullptr});
   std::string error, warning;
   const bool binary = bytes.size() >= 4 && bytes.compare(0, 4, "glTF") == 0;
   const bool loaded =

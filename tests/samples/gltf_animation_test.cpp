@@ -117,6 +117,17 @@ TEST_CASE("a document without nodes or animations loads; out-of-range requests t
   CHECK_THROWS_AS(GltfAnimation::load_file("/nonexistent/file.glb"), GltfError);
 }
 
+TEST_CASE("external URIs are taken literally: no shell expansion of $(...) or ~") {
+  const std::filesystem::path dir = skelform::test::scratch_dir("gltf_animation_uri");
+  const std::filesystem::path marker = dir / "expanded";
+  std::filesystem::remove(marker);
+  GltfBuilder builder;
+  builder.doc["buffers"] = {{{"byteLength", 4}, {"uri", "$(touch " + marker.string() + ").bin"}}};
+  const std::string text = builder.doc.dump();
+  CHECK_THROWS_AS(GltfAnimation::load_memory(text, "uri.gltf", dir.string()), GltfError);  // no such file
+  CHECK_FALSE(std::filesystem::exists(marker));
+}
+
 TEST_CASE("LINEAR rotation: 0 to 90 degrees about z sampled at the midpoint gives 45 degrees (slerp)") {
   GltfBuilder builder;
   builder.doc["nodes"] = {json::object()};
