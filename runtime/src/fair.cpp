@@ -1,0 +1,580 @@
+// Runtime step 3: fairing flows (4) and (5) of the paper (sec. 3.1, 3.2) on the control mesh.
+//
+// Discretisation (DESIGN.md math notes):
+//   Δ²M ≈ U²(p) = mean_j U(q_j) − U(p), U(p) = mean_j q_j − p (Kobbelt et al. [17]), uniform
+//   weights; −U² smooths (it decreases Σ|U|², tested).
+//   Flow (4): ∂M/∂t = −αΔ²M − F − V, with α ∈ {0.25, 0} by the obtuse-umbrella rule,
+//     F(M) = (1/n) Σ_j E_{T_j}(C_j) ∇E_{T_j}(C_j), V = Δ²M − (Δ²M·F̂) F̂.
+//   Flow (5): ∂M/∂t = −f∇f − WΔ²M, g(x, S) = |x − S|² − d_S², f from the voxel grid,
+//     W = |f − g| / max|f − g|.
+//
+// Explicit stepping (the paper's): x ← x + τ·(right-hand side at x).
+// Semi-implicit stepping (paper sec. 5 after Desbrun et al. [11]): the forces F and f∇f are
+// taken at the old positions, the bilaplacian terms at the new ones:
+//   x' + τ B_v U²(x') = x − τ F(x),   B_v = α_v I + (I − F̂F̂ᵀ)  (flow 4: αΔ² and V),
+//   x' + τ W_v U²(x') = x − τ G(x),                             (flow 5),
+// solved by a few in-place Gauss-Seidel sweeps in fixed vertex order; each vertex's 3×3 block
+// (I + τ ν_v B_v) is inverted in closed form (B_v has eigenvalue α along F̂ and α + 1
+// across it). No Eigen, no allocation.
+#include "fair.h"
+
+#include <glm/geometric.hpp>
+#include <glm/vec3.hpp>
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+namespace skelform::runtime {
+namespace {
+
+constexpr uint32_t kDefaultIterations = 30;
+constexpr float kAlphaSmooth = 0.25f;         // α of flow (4) where the umbrellas agree
+constexpr float kObtuseFraction = 0.3f;       // the paper's 30 % rule
+constexpr uint32_t kDefaultGridSize = 20;     // the paper's 20×20×20 voxels
+constexpr int kGaussSeidelSweeps = 3;
+// A vertex moves at most this many times its mean incident edge length per step: a safety net
+// against a far-off vertex overshooting (scale-free, so scale invariance is kept).
+constexpr float kMaxStepPerEdge = 0.5f;
+
+bool finite(const glm::vec3& v) { return std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z); }
+
+// U(p) = mean of the one-ring − p; 0 for a vertex without neighbours.
+glm::vec3 umbrella_at(const FairingTopology& topo, const glm::vec3* x, uint32_t v) {
+  const uint32_t begin = topo.neighbour_offsets[v], end = topo.neighbour_offsets[v + 1];
+  if (begin == end) return glm::vec3(0.0f);
+  glm::vec3 sum(0.0f);
+  for (uint32_t k = begin; k < end; ++k) sum += x[topo.neighbours[k]];
+  return sum / static_cast<float>(end - begin) - x[v];
+}
+
+// U²(p) = mean_j U(q_j) − U(p) evaluated from the positions as they are now (for the
+// in-place Gauss-Seidel sweeps, which cannot use a precomputed U).
+glm::vec3 bi_umbrella_at(const FairingTopology& topo, const glm::vec3* x, uint32_t v) {
+  const uint32_t begin = topo.neighbour_offsets[v], end = topo.neighbour_offsets[v + 1];
+  if (begin == end) return glm::vec3(0.0f);
+  glm::vec3 sum(0.0f);
+  for (uint32_t k = begin; k < end; ++k) sum += umbrella_at(topo, x, topo.neighbours[k]);
+  return sum / static_cast<float>(end - begin) - umbrella_at(topo, x, v);
+}
+
+void compute_umbrellas(const FairingTopology& topo, const glm::vec3* x, FairingWorkspace& ws) {
+  for (uint32_t v = 0; v < topo.vertex_count; ++v) ws.umbrella[v] = umbrella_at(topo, x, v);
+  for (uint32_t v = 0; v < topo.vertex_count; ++v) ws.bi_umbrella[v] = umbrella_at(topo, ws.umbrella.data(), v);
+}
+
+float mean_edge_length(const FairingTopology& topo, const glm::vec3* x, uint32_t v) {
+  const uint32_t begin = topo.neighbour_offsets[v], end = topo.neighbour_offsets[v + 1];
+  if (begin == end) return 0.0f;
+  float sum = 0.0f;
+  for (uint32_t k = begin; k < end; ++k) sum += glm::length(x[topo.neighbours[k]] - x[v]);
+  return sum / static_cast<float>(end - begin);
+}
+
+// Moves every free vertex by ws.displacement, each shortened to kMaxStepPerEdge of its mean
+// edge length measured before anything moves (so the result does not depend on vertex
+// order); returns the largest motion. A non-finite displacement moves nothing.
+float apply_displacements(const FairingTopology& topo, glm::vec3* x, FairingWorkspace& ws) {
+  float largest = 0.0f;
+  for (uint32_t v = 0; v < topo.vertex_count; ++v) {
+    glm::vec3& step = ws.displacement[v];
+    if (topo.fixed[v] || !finite(step)) {
+      step = glm::vec3(0.0f);
+      continue;
+    }
+    const float length = glm::length(step);
+    const float limit = kMaxStepPerEdge * mean_edge_length(topo, x, v);
+    if (length > limit) step *= limit / length;
+    largest = std::max(largest, std::min(length, limit));
+  }
+  for (uint32_t v = 0; v < topo.vertex_count; ++v) x[v] += ws.displacement[v];
+  return largest;
+}
+
+// Semi-implicit step: solves x' + τ B_v U²(x') = rhs (rhs in ws.start_positions) in place,
+// then turns x' − x into ws.displacement and applies it like an explicit step.
+float implicit_update(const FairingTopology& topo, glm::vec3* x, float step, float tangential_weight,
+                      FairingWorkspace& ws);
+
+// (I + c B)⁻¹ z for B = a I + b (I − n nᵀ), |n| = 1 or n = 0 (then B = (a + b) I).
+glm::vec3 solve_block(const glm::vec3& z, const glm::vec3& n, float c, float a, float b) {
+  const glm::vec3 along = glm::dot(z, n) * n;
+  return along / (1.0f + c * a) + (z - along) / (1.0f + c * (a + b));
+}
+
+// Gauss-Seidel sweeps for x' + τ B_v U²(x') = rhs (rhs in ws.start_positions), in place.
+void gauss_seidel(const FairingTopology& topo, glm::vec3* x, float step, float tangential_weight,
+                  FairingWorkspace& ws) {
+  for (int sweep = 0; sweep < kGaussSeidelSweeps; ++sweep) {
+    for (uint32_t v = 0; v < topo.vertex_count; ++v) {
+      if (topo.fixed[v]) continue;
+      const float nu = topo.bi_umbrella_diagonal[v];
+      const glm::vec3 off_diagonal = bi_umbrella_at(topo, x, v) - nu * x[v];  // U²x − ν x_v
+      const float a = ws.smoothing_weight[v];
+      const glm::vec3& n = ws.force_direction[v];
+      // B_v applied to the off-diagonal part: a·r + b·(r − (r·n)n).
+      const glm::vec3 b_off = a * off_diagonal + tangential_weight * (off_diagonal - glm::dot(off_diagonal, n) * n);
+      const glm::vec3 solved =
+          solve_block(ws.start_positions[v] - step * b_off, n, step * nu, a, tangential_weight);
+      if (finite(solved)) x[v] = solved;
+    }
+  }
+}
+
+// ---- flow (4) ----------------------------------------------------------------------------
+
+// One step of flow (4); returns the largest vertex motion.
+float fold_step(const FairingTopology& topo, const glm::vec3* skeletal, const float* radius, glm::vec3* x,
+                float step, bool semi_implicit, FairingWorkspace& ws) {
+  const uint32_t vertex_count = topo.vertex_count;
+  compute_umbrellas(topo, x, ws);
+
+  // E_T(C_j)·∇E_T(C_j) per mesh triangle j against its deformed skeletal triangle T_j.
+  for (uint32_t t = 0; t < topo.triangle_count; ++t) {
+    const uint32_t* corner = topo.triangle_indices.data() + 3 * size_t{t};
+    const glm::vec3 centroid = (x[corner[0]] + x[corner[1]] + x[corner[2]]) / 3.0f;
+    const glm::vec3 centres[3] = {skeletal[corner[0]], skeletal[corner[1]], skeletal[corner[2]]};
+    const float radii[3] = {radius[corner[0]], radius[corner[1]], radius[corner[2]]};
+    glm::vec3 force(0.0f);
+    if (finite(centroid) && finite(centres[0]) && finite(centres[1]) && finite(centres[2])) {
+      const HullDistance e = ball_hull_distance(centroid, centres, radii);
+      force = e.value * e.gradient;
+    }
+    ws.triangle_force[t] = finite(force) ? force : glm::vec3(0.0f);
+  }
+
+  for (uint32_t v = 0; v < vertex_count; ++v) {
+    ws.displacement[v] = glm::vec3(0.0f);
+    ws.smoothing_weight[v] = 0.0f;
+    ws.force_direction[v] = glm::vec3(0.0f);
+    if (topo.fixed[v]) continue;
+    // α: 0.25 unless 30 % or more of the neighbours' umbrella vectors are obtuse to U(p).
+    const uint32_t begin = topo.neighbour_offsets[v], end = topo.neighbour_offsets[v + 1];
+    uint32_t obtuse = 0;
+    for (uint32_t k = begin; k < end; ++k)
+      if (glm::dot(ws.umbrella[topo.neighbours[k]], ws.umbrella[v]) < 0.0f) ++obtuse;
+    const float alpha = static_cast<float>(obtuse) < kObtuseFraction * static_cast<float>(end - begin) ? kAlphaSmooth : 0.0f;
+
+    // F = (1/n) Σ_j E_{T_j}(C_j) ∇E_{T_j}(C_j) over the incident triangles.
+    const uint32_t tri_begin = topo.incident_offsets[v], tri_end = topo.incident_offsets[v + 1];
+    glm::vec3 force(0.0f);
+    for (uint32_t k = tri_begin; k < tri_end; ++k) force += ws.triangle_force[topo.incident_triangles[k]];
+    if (tri_end > tri_begin) force /= static_cast<float>(tri_end - tri_begin);
+    const float force_length = glm::length(force);
+    const glm::vec3 direction = force_length > 0.0f ? force / force_length : glm::vec3(0.0f);
+
+    // V = Δ²M − (Δ²M·F̂)F̂ (V = Δ²M where F = 0).
+    const glm::vec3& bi = ws.bi_umbrella[v];
+    const glm::vec3 tangential = bi - glm::dot(bi, direction) * direction;
+    ws.smoothing_weight[v] = alpha;
+    ws.force_direction[v] = direction;
+    // (4): ∂M/∂t = −αΔ²M − F − V.
+    ws.displacement[v] = semi_implicit ? -step * force : -step * (alpha * bi + force + tangential);
+  }
+
+  if (!semi_implicit) return apply_displacements(topo, x, ws);  // Jacobi: all from one state
+  for (uint32_t v = 0; v < vertex_count; ++v) ws.start_positions[v] = x[v] + ws.displacement[v];  // x − τF
+  return implicit_update(topo, x, step, 1.0f, ws);
+}
+
+// ---- flow (5) ----------------------------------------------------------------------------
+
+struct Grid {
+  glm::vec3 origin{0.0f};
+  glm::vec3 cell{1.0f};      // cell size per axis
+  glm::vec3 inverse_cell{1.0f};
+  int size = 1;              // cells per axis
+  int ring[3] = {1, 1, 1};   // ⌈max d / cell⌉ per axis, at least 1 (the paper's 3×3×3)
+  float max_radius = 0.0f;   // largest d
+};
+
+int cell_coordinate(float x, float origin, float inverse_cell, int size) {
+  const float c = (x - origin) * inverse_cell;
+  if (!(c >= 0.0f)) return 0;  // also NaN
+  return std::min(static_cast<int>(c), size - 1);
+}
+
+// Buckets the skeletal vertices into the grid over the bounding box of skeleton and mesh.
+Grid build_grid(const FairingTopology& topo, const glm::vec3* skeletal, const float* radius, const glm::vec3* x,
+                int size, FairingWorkspace& ws) {
+  const uint32_t vertex_count = topo.vertex_count;
+  glm::vec3 lo(std::numeric_limits<float>::max()), hi(-std::numeric_limits<float>::max());
+  float max_radius = 0.0f;
+  for (uint32_t v = 0; v < vertex_count; ++v) {
+    if (finite(skeletal[v])) lo = glm::min(lo, skeletal[v]), hi = glm::max(hi, skeletal[v]);
+    if (finite(x[v])) lo = glm::min(lo, x[v]), hi = glm::max(hi, x[v]);
+    if (std::isfinite(radius[v])) max_radius = std::max(max_radius, radius[v]);
+  }
+  Grid grid;
+  grid.size = size;
+  if (!(lo.x <= hi.x)) lo = hi = glm::vec3(0.0f);
+  const glm::vec3 extent = hi - lo;
+  const float largest = std::max(std::max(extent.x, extent.y), extent.z);
+  // Cubic cells (the paper divides a unit box): the largest extent over `size` cells; the
+  // box is centred in the grid along its shorter axes.
+  const float cell = (largest > 0.0f ? largest : 1.0f) / static_cast<float>(size);
+  grid.origin = 0.5f * (lo + hi) - 0.5f * cell * static_cast<float>(size);
+  grid.cell = glm::vec3(cell);
+  grid.inverse_cell = glm::vec3(1.0f / cell);
+  grid.max_radius = max_radius;
+  const int ring = std::min(size, std::max(1, static_cast<int>(std::ceil(max_radius / cell))));
+  grid.ring[0] = grid.ring[1] = grid.ring[2] = ring;
+
+  const size_t cell_count = size_t(size) * size * size;
+  std::fill(ws.cell_offsets.begin(), ws.cell_offsets.begin() + cell_count + 1, 0u);
+  std::fill(ws.cell_max_radius.begin(), ws.cell_max_radius.begin() + cell_count, 0.0f);
+  const uint32_t none = std::numeric_limits<uint32_t>::max();
+  for (uint32_t v = 0; v < vertex_count; ++v) {
+    const glm::vec3& s = skeletal[v];
+    if (!finite(s) || !std::isfinite(radius[v])) {
+      ws.vertex_cell[v] = none;
+      continue;
+    }
+    const size_t c = (size_t(cell_coordinate(s.z, grid.origin.z, grid.inverse_cell.z, size)) * size +
+                      size_t(cell_coordinate(s.y, grid.origin.y, grid.inverse_cell.y, size))) * size +
+                     size_t(cell_coordinate(s.x, grid.origin.x, grid.inverse_cell.x, size));
+    ws.vertex_cell[v] = static_cast<uint32_t>(c);
+    ++ws.cell_offsets[c + 1];
+    ws.cell_max_radius[c] = std::max(ws.cell_max_radius[c], std::fabs(radius[v]));
+  }
+  for (size_t c = 0; c < cell_count; ++c) ws.cell_offsets[c + 1] += ws.cell_offsets[c];
+  // Counting sort, stable: each cell lists its vertices in ascending order (determinism of
+  // ties in the minimum below).
+  for (uint32_t v = 0; v < vertex_count; ++v) {
+    if (ws.vertex_cell[v] == none) continue;
+    ws.cell_vertices[ws.cell_offsets[ws.vertex_cell[v]]++] = v;
+  }
+  for (size_t c = cell_count; c > 0; --c) ws.cell_offsets[c] = ws.cell_offsets[c - 1];
+  ws.cell_offsets[0] = 0;
+  return grid;
+}
+
+struct FieldValue {
+  float f = std::numeric_limits<float>::infinity();
+  uint32_t minimiser = std::numeric_limits<uint32_t>::max();  // S* (skeletal vertex index)
+};
+
+// min of g(x, S) = |x − S|² − d_S² over the skeletal vertices of one cell, into `best`.
+void cell_minimum(const glm::vec3& x, const glm::vec3* skeletal, const float* radius, const FairingWorkspace& ws,
+                  size_t cell, FieldValue& best) {
+  for (uint32_t k = ws.cell_offsets[cell]; k < ws.cell_offsets[cell + 1]; ++k) {
+    const uint32_t s = ws.cell_vertices[k];
+    const glm::vec3 d = x - skeletal[s];
+    const float g = glm::dot(d, d) - radius[s] * radius[s];
+    if (g < best.f) best = {g, s};
+  }
+}
+
+// f(x) of (5): h of x's own cell when negative, else the minimum of h over the neighbouring
+// cells — the paper's 3×3×3, widened to rings of ⌈max d / cell⌉ (DESIGN.md), and further if
+// still no skeletal vertex was found, so f is always defined.
+FieldValue field_at(const Grid& grid, const glm::vec3& x, const glm::vec3* skeletal, const float* radius,
+                    const FairingWorkspace& ws) {
+  const int n = grid.size;
+  const int cx = cell_coordinate(x.x, grid.origin.x, grid.inverse_cell.x, n);
+  const int cy = cell_coordinate(x.y, grid.origin.y, grid.inverse_cell.y, n);
+  const int cz = cell_coordinate(x.z, grid.origin.z, grid.inverse_cell.z, n);
+  FieldValue best;
+  cell_minimum(x, skeletal, radius, ws, (size_t(cz) * n + cy) * n + cx, best);
+  if (best.f < 0.0f) return best;  // h_{l,m,n} < 0
+  // Shells of Chebyshev radius r around the own cell, nearest first: a shell whose every point
+  // is at least (r − 1) cells away cannot beat `best` once (r − 1)²·cell² − (max d)² ≥ best,
+  // which ends the search early without changing the minimum over the neighbourhood.
+  const int last_ring = std::max(std::max(grid.ring[0], grid.ring[1]), grid.ring[2]);
+  for (int r = 1; r <= n; ++r) {
+    const bool searched = best.minimiser != std::numeric_limits<uint32_t>::max();
+    if (r > last_ring && searched) break;  // the (widened) 3×3×3 neighbourhood is done
+    const float gap = float(r - 1) * grid.cell.x;
+    if (searched && gap * gap - grid.max_radius * grid.max_radius >= best.f) break;
+    for (int z = std::max(0, cz - r); z <= std::min(n - 1, cz + r); ++z)
+      for (int y = std::max(0, cy - r); y <= std::min(n - 1, cy + r); ++y)
+        for (int xx = std::max(0, cx - r); xx <= std::min(n - 1, cx + r); ++xx) {
+          // Inside the shell's cube but not on its surface: jump to the far face in x.
+          if (std::abs(z - cz) != r && std::abs(y - cy) != r && std::abs(xx - cx) != r) {
+            xx = cx + r - 1;
+            continue;
+          }
+          const size_t c = (size_t(z) * n + y) * n + xx;
+          if (ws.cell_offsets[c] == ws.cell_offsets[c + 1]) continue;
+          // Prune: every S in the cell has g ≥ dist(x, cell)² − (max d in the cell)².
+          const glm::vec3 cell_lo = grid.origin + glm::vec3(float(xx), float(y), float(z)) * grid.cell;
+          const glm::vec3 outside = glm::max(glm::max(cell_lo - x, x - (cell_lo + grid.cell)), glm::vec3(0.0f));
+          const float bound = glm::dot(outside, outside) - ws.cell_max_radius[c] * ws.cell_max_radius[c];
+          if (bound >= best.f) continue;
+          cell_minimum(x, skeletal, radius, ws, c, best);
+        }
+  }
+  return best;
+}
+
+// One step of flow (5); returns the largest vertex motion.
+float intersection_step(const FairingTopology& topo, const Grid& grid, const glm::vec3* skeletal, const float* radius,
+                        glm::vec3* x, float step, bool semi_implicit, FairingWorkspace& ws) {
+  const uint32_t vertex_count = topo.vertex_count;
+  compute_umbrellas(topo, x, ws);
+
+  // f, its Gauss-Newton step G = f∇f / max(|∇f|², 4 d*²) with ∇f = 2(x − S*), and |f − g|.
+  float largest_gap = 0.0f;
+  for (uint32_t v = 0; v < vertex_count; ++v) {
+    ws.displacement[v] = glm::vec3(0.0f);
+    ws.smoothing_weight[v] = 0.0f;
+    ws.force_direction[v] = glm::vec3(0.0f);
+    if (topo.fixed[v] || !finite(x[v])) continue;
+    const FieldValue field = field_at(grid, x[v], skeletal, radius, ws);
+    if (field.minimiser == std::numeric_limits<uint32_t>::max()) continue;
+    const glm::vec3 gradient = 2.0f * (x[v] - skeletal[field.minimiser]);  // ∇f
+    const float d_star = radius[field.minimiser];
+    const float denominator = std::max(glm::dot(gradient, gradient), 4.0f * d_star * d_star);
+    if (denominator > 0.0f) ws.displacement[v] = -step * (field.f / denominator) * gradient;  // −f∇f, normalised
+    // W's numerator |f(M) − g(M, S)|: 0 where the vertex's own ball is the minimiser.
+    if (field.minimiser != v && finite(skeletal[v])) {
+      const glm::vec3 d = x[v] - skeletal[v];
+      const float gap = std::fabs(field.f - (glm::dot(d, d) - radius[v] * radius[v]));
+      ws.smoothing_weight[v] = std::isfinite(gap) ? gap : 0.0f;
+      largest_gap = std::max(largest_gap, ws.smoothing_weight[v]);
+    }
+  }
+  // W(M) = |f(M) − g(M, S)| / max_M |f − g|.
+  for (uint32_t v = 0; v < vertex_count; ++v)
+    ws.smoothing_weight[v] = largest_gap > 0.0f ? ws.smoothing_weight[v] / largest_gap : 0.0f;
+
+  if (!semi_implicit) {
+    // (5): ∂M/∂t = −f∇f − WΔ²M.
+    for (uint32_t v = 0; v < vertex_count; ++v)
+      ws.displacement[v] -= step * ws.smoothing_weight[v] * ws.bi_umbrella[v];
+    return apply_displacements(topo, x, ws);
+  }
+  for (uint32_t v = 0; v < vertex_count; ++v) ws.start_positions[v] = x[v] + ws.displacement[v];  // x − τG
+  return implicit_update(topo, x, step, 0.0f, ws);
+}
+
+float implicit_update(const FairingTopology& topo, glm::vec3* x, float step, float tangential_weight,
+                      FairingWorkspace& ws) {
+  // ws.umbrella is free now: keep x before the solve there.
+  for (uint32_t v = 0; v < topo.vertex_count; ++v) ws.umbrella[v] = x[v];
+  gauss_seidel(topo, x, step, tangential_weight, ws);
+  for (uint32_t v = 0; v < topo.vertex_count; ++v) {
+    ws.displacement[v] = x[v] - ws.umbrella[v];
+    x[v] = ws.umbrella[v];
+  }
+  return apply_displacements(topo, x, ws);
+}
+
+}  // namespace
+
+// ---- E_T ---------------------------------------------------------------------------------
+
+HullDistance ball_hull_distance(const glm::vec3& point, const glm::vec3* centres, const float* radii) {
+  using glm::dvec3;
+  const dvec3 p(point);
+  const dvec3 c[3] = {dvec3(centres[0]), dvec3(centres[1]), dvec3(centres[2])};
+  const double r[3] = {radii[0], radii[1], radii[2]};
+
+  double best = std::numeric_limits<double>::infinity();
+  dvec3 best_gradient(0.0);
+  // A candidate b in the closed triangle with its foot c(b) and value |P − c(b)| − r(b); the
+  // function is convex in b, so the smallest candidate among {interior stationary point,
+  // each edge's minimum, each vertex} is the minimum.
+  auto consider_foot = [&](const dvec3& foot, double foot_radius) {
+    const dvec3 offset = p - foot;
+    const double distance = glm::length(offset);
+    const double value = distance - foot_radius;
+    if (value < best) {
+      best = value;
+      best_gradient = distance > 0.0 ? offset / distance : dvec3(0.0);
+    }
+  };
+  for (int i = 0; i < 3; ++i) consider_foot(c[i], r[i]);  // a vertex: the sphere itself
+
+  // Edges: the cone frustum of balls i and j. With s the arc length along the axis,
+  // φ(s) = sqrt((a − s)² + h²) − r_i − k s, k = (r_j − r_i)/L; φ'(s) = 0 at
+  // s* = a + k h / sqrt(1 − k²) when |k| < 1 (else one ball contains the other: a vertex wins).
+  for (int i = 0; i < 3; ++i) {
+    const int j = (i + 1) % 3;
+    const dvec3 edge = c[j] - c[i];
+    const double length = glm::length(edge);
+    if (!(length > 0.0)) continue;
+    const double k = (r[j] - r[i]) / length;
+    if (!(std::fabs(k) < 1.0)) continue;
+    const dvec3 axis = edge / length;
+    const dvec3 u = p - c[i];
+    const double a = glm::dot(u, axis);
+    const double h = glm::length(u - a * axis);
+    const double s = std::clamp(a + k * h / std::sqrt(1.0 - k * k), 0.0, length);
+    consider_foot(c[i] + s * axis, r[i] + k * s);
+  }
+
+  // Interior (tangent-plane case): at a stationary b the unit n = (P − c(b))/|P − c(b)| obeys
+  // n·c_i + r_i = const, i.e. n·e_1 = −δ_1, n·e_2 = −δ_2 (e_i = c_i − c_0, δ_i = r_i − r_0):
+  // n = n₀ + σμ m with n₀ in the triangle's plane, m its unit normal, μ = sqrt(1 − |n₀|²), σ the
+  // side of P. Then E_T = n·(P − c_0) − r_0 (distance to the tangent plane), valid when the
+  // foot Q = P − t n, t = |(P − c_0)·m| / μ, lies in the triangle.
+  const dvec3 e1 = c[1] - c[0], e2 = c[2] - c[0];
+  const double g11 = glm::dot(e1, e1), g12 = glm::dot(e1, e2), g22 = glm::dot(e2, e2);
+  const double det = g11 * g22 - g12 * g12;  // |e1 × e2|²
+  if (det > 1e-14 * g11 * g22 && det > 0.0) {
+    const double d1 = r[1] - r[0], d2 = r[2] - r[0];
+    const double a = (-d1 * g22 + d2 * g12) / det;
+    const double b = (-d2 * g11 + d1 * g12) / det;
+    const dvec3 n0 = a * e1 + b * e2;
+    const double q = 1.0 - glm::dot(n0, n0);
+    if (q > 0.0) {
+      const double mu = std::sqrt(q);
+      const dvec3 m = glm::cross(e1, e2) / std::sqrt(det);
+      const double w = glm::dot(p - c[0], m);
+      const double sigma = w >= 0.0 ? 1.0 : -1.0;
+      const dvec3 n = n0 + sigma * mu * m;
+      const double t = std::fabs(w) / mu;
+      const dvec3 foot = p - t * n - c[0];
+      const double f1 = glm::dot(foot, e1), f2 = glm::dot(foot, e2);
+      const double beta1 = (f1 * g22 - f2 * g12) / det;
+      const double beta2 = (f2 * g11 - f1 * g12) / det;
+      if (beta1 >= 0.0 && beta2 >= 0.0 && beta1 + beta2 <= 1.0) {
+        const double value = t - (r[0] + beta1 * d1 + beta2 * d2);
+        if (value < best) {
+          best = value;
+          best_gradient = n;
+        }
+      }
+    }
+  }
+  HullDistance result;
+  result.value = std::isfinite(best) ? static_cast<float>(best) : 0.0f;
+  result.gradient = std::isfinite(best) ? glm::vec3(best_gradient) : glm::vec3(0.0f);
+  return result;
+}
+
+// ---- topology, workspace, run ----------------------------------------------------------
+
+FairingTopology build_fairing_topology(const uint32_t* triangle_indices, size_t triangle_count,
+                                       size_t vertex_count, const AllocatorRef& allocator) {
+  FairingTopology topo(allocator);
+  topo.vertex_count = static_cast<uint32_t>(vertex_count);
+  topo.triangle_count = static_cast<uint32_t>(triangle_count);
+  topo.triangle_indices.assign(triangle_indices, triangle_indices + 3 * triangle_count);
+
+  // Vertex → triangles (every triangle, degenerate too: F averages over what is incident).
+  topo.incident_offsets.assign(vertex_count + 1, 0);
+  for (size_t i = 0; i < 3 * triangle_count; ++i) ++topo.incident_offsets[triangle_indices[i] + 1];
+  for (size_t v = 0; v < vertex_count; ++v) topo.incident_offsets[v + 1] += topo.incident_offsets[v];
+  topo.incident_triangles.assign(topo.incident_offsets[vertex_count], 0);
+  {
+    Array<uint32_t> fill(topo.incident_offsets.begin(), topo.incident_offsets.end() - 1,
+                         CallbackAllocator<uint32_t>(allocator));
+    for (size_t t = 0; t < triangle_count; ++t)
+      for (int k = 0; k < 3; ++k) topo.incident_triangles[fill[triangle_indices[3 * t + k]]++] = uint32_t(t);
+  }
+
+  // Directed half-edges (v → w, per triangle corner), sorted per vertex: duplicates are the
+  // one-ring; an undirected edge seen once (v→w or w→v in one triangle only) is a border.
+  Array<uint32_t> half_offsets(vertex_count + 1, 0, CallbackAllocator<uint32_t>(allocator));
+  for (size_t t = 0; t < triangle_count; ++t) {
+    const uint32_t* tri = triangle_indices + 3 * t;
+    if (tri[0] == tri[1] || tri[1] == tri[2] || tri[2] == tri[0]) continue;
+    for (int k = 0; k < 3; ++k) half_offsets[tri[k] + 1] += 2;
+  }
+  for (size_t v = 0; v < vertex_count; ++v) half_offsets[v + 1] += half_offsets[v];
+  Array<uint32_t> half_targets(half_offsets[vertex_count], 0, CallbackAllocator<uint32_t>(allocator));
+  {
+    Array<uint32_t> fill(half_offsets.begin(), half_offsets.end() - 1, CallbackAllocator<uint32_t>(allocator));
+    for (size_t t = 0; t < triangle_count; ++t) {
+      const uint32_t* tri = triangle_indices + 3 * t;
+      if (tri[0] == tri[1] || tri[1] == tri[2] || tri[2] == tri[0]) continue;
+      for (int k = 0; k < 3; ++k) {
+        const uint32_t v = tri[k];
+        half_targets[fill[v]++] = tri[(k + 1) % 3];
+        half_targets[fill[v]++] = tri[(k + 2) % 3];
+      }
+    }
+  }
+  topo.fixed.assign(vertex_count, 0);
+  topo.neighbour_offsets.assign(vertex_count + 1, 0);
+  topo.neighbours.reserve(half_targets.size() / 2);
+  for (size_t v = 0; v < vertex_count; ++v) {
+    uint32_t* begin = half_targets.data() + half_offsets[v];
+    uint32_t* end = half_targets.data() + half_offsets[v + 1];
+    std::sort(begin, end);
+    // Each neighbour w appears once per triangle containing edge vw: once = border edge.
+    for (uint32_t* it = begin; it != end;) {
+      uint32_t* run = it;
+      while (run != end && *run == *it) ++run;
+      if (run - it == 1) topo.fixed[v] = 1;
+      topo.neighbours.push_back(*it);
+      it = run;
+    }
+    topo.neighbour_offsets[v + 1] = static_cast<uint32_t>(topo.neighbours.size());
+    if (begin == end) topo.fixed[v] = 1;  // isolated
+  }
+
+  // ν_v = 1 + (1/n_v) Σ_j 1/n_j, the diagonal of U².
+  topo.bi_umbrella_diagonal.assign(vertex_count, 0.0f);
+  for (size_t v = 0; v < vertex_count; ++v) {
+    const uint32_t begin = topo.neighbour_offsets[v], end = topo.neighbour_offsets[v + 1];
+    if (topo.fixed[v] || begin == end) continue;
+    float inverse_degree_sum = 0.0f;
+    for (uint32_t k = begin; k < end; ++k) {
+      const uint32_t w = topo.neighbours[k];
+      inverse_degree_sum += 1.0f / static_cast<float>(topo.neighbour_offsets[w + 1] - topo.neighbour_offsets[w]);
+    }
+    topo.bi_umbrella_diagonal[v] = 1.0f + inverse_degree_sum / static_cast<float>(end - begin);
+  }
+  return topo;
+}
+
+FairingWorkspace make_fairing_workspace(const FairingTopology& topology, uint32_t grid_size,
+                                        const AllocatorRef& allocator) {
+  FairingWorkspace ws(allocator);
+  const size_t n = topology.vertex_count;
+  ws.vertex_count = topology.vertex_count;
+  ws.triangle_count = topology.triangle_count;
+  ws.grid_size = grid_size == 0 ? kDefaultGridSize : grid_size;
+  const size_t cells = size_t(ws.grid_size) * ws.grid_size * ws.grid_size;
+  ws.umbrella.assign(n, glm::vec3(0.0f));
+  ws.bi_umbrella.assign(n, glm::vec3(0.0f));
+  ws.triangle_force.assign(topology.triangle_count, glm::vec3(0.0f));
+  ws.displacement.assign(n, glm::vec3(0.0f));
+  ws.start_positions.assign(n, glm::vec3(0.0f));
+  ws.smoothing_weight.assign(n, 0.0f);
+  ws.force_direction.assign(n, glm::vec3(0.0f));
+  ws.cell_offsets.assign(cells + 1, 0);
+  ws.cell_vertices.assign(n, 0);
+  ws.cell_max_radius.assign(cells, 0.0f);
+  ws.vertex_cell.assign(n, 0);
+  return ws;
+}
+
+float fair_run(const FairingTopology& topology, const glm::vec3* skeletal, const float* radius,
+               glm::vec3* positions, size_t vertex_count, const FairingParams& params,
+               FairingWorkspace& workspace) {
+  const uint32_t grid_size = params.grid_size == 0 ? kDefaultGridSize : params.grid_size;
+  if (vertex_count != topology.vertex_count || workspace.vertex_count != topology.vertex_count ||
+      workspace.triangle_count != topology.triangle_count || grid_size > workspace.grid_size)
+    return -1.0f;
+  if (vertex_count == 0) return 0.0f;
+  const uint32_t iterations = params.iterations == 0 ? kDefaultIterations : params.iterations;
+  const float fold = params.fold_step > 0.0f ? params.fold_step : (params.semi_implicit ? 0.5f : 0.2f);
+  const float intersect = params.intersection_step > 0.0f ? params.intersection_step : 0.3f;
+
+  glm::vec3 lo(std::numeric_limits<float>::max()), hi(-std::numeric_limits<float>::max());
+  for (size_t v = 0; v < vertex_count; ++v)
+    if (finite(positions[v])) lo = glm::min(lo, positions[v]), hi = glm::max(hi, positions[v]);
+  const float diagonal = lo.x <= hi.x ? glm::length(hi - lo) : 0.0f;
+
+  Grid grid;
+  if (params.intersection_flow)
+    grid = build_grid(topology, skeletal, radius, positions, static_cast<int>(grid_size), workspace);
+
+  float residual = 0.0f;
+  for (uint32_t iteration = 0; iteration < iterations; ++iteration) {
+    float moved = 0.0f;
+    if (params.fold_flow)
+      moved = std::max(moved, fold_step(topology, skeletal, radius, positions, fold, params.semi_implicit, workspace));
+    if (params.intersection_flow)
+      moved = std::max(moved, intersection_step(topology, grid, skeletal, radius, positions, intersect,
+                                                params.semi_implicit, workspace));
+    residual = diagonal > 0.0f ? moved / diagonal : 0.0f;
+  }
+  return residual;
+}
+
+}  // namespace skelform::runtime

@@ -1,0 +1,141 @@
+// Runtime step 3 (DESIGN.md "Fair"): the paper's mesh evolutions on the reconstructed control
+// mesh M — flow (4) removes folds and protrusions (sec. 3.1), flow (5) removes global and local
+// self-intersections (sec. 3.2).
+//
+// Usage: once per asset, build_fairing_topology() from the control triangles; once per
+// instance, make_fairing_workspace(); every evaluation, fair_run() between reconstruction and
+// refinement. fair_run() allocates nothing, throws nothing and touches no global state; the
+// topology is read-only (shareable across threads), the workspace is the instance's own.
+// Deterministic: the same input gives bit-identical output (single thread, fixed order).
+//
+// Units: whatever the asset's positions are in. Every step is dimensionless or normalised so
+// that scaling the input by s scales the output by s (up to float rounding): flow (4) is a
+// length per unit time already; flow (5)'s f∇f (length³) is divided per vertex by |∇f|²
+// (see FairingParams::intersection_step).
+//
+// Open borders: vertices on an edge with one incident triangle (and vertices no triangle
+// uses) are kept fixed by both flows.
+#pragma once
+
+#include "memory.h"
+
+#include <glm/vec3.hpp>
+
+#include <cstddef>
+#include <cstdint>
+
+namespace skelform::runtime {
+
+// Connectivity of the control mesh, built once per asset; immutable afterwards.
+struct FairingTopology {
+  explicit FairingTopology(const AllocatorRef& a)
+      : triangle_indices(CallbackAllocator<uint32_t>(a)), neighbour_offsets(CallbackAllocator<uint32_t>(a)),
+        neighbours(CallbackAllocator<uint32_t>(a)), incident_offsets(CallbackAllocator<uint32_t>(a)),
+        incident_triangles(CallbackAllocator<uint32_t>(a)), fixed(CallbackAllocator<uint8_t>(a)),
+        bi_umbrella_diagonal(CallbackAllocator<float>(a)) {}
+
+  uint32_t vertex_count = 0;
+  uint32_t triangle_count = 0;
+  Array<uint32_t> triangle_indices;   // 3 per triangle, copied from the asset
+  Array<uint32_t> neighbour_offsets;  // vertex_count + 1: one-ring of v is neighbours[o[v] .. o[v+1])
+  Array<uint32_t> neighbours;         // each neighbour once, ascending
+  Array<uint32_t> incident_offsets;   // vertex_count + 1: triangles around v (CSR)
+  Array<uint32_t> incident_triangles; // ascending triangle indices
+  Array<uint8_t> fixed;               // 1 = open-border or isolated vertex: never moved
+  // ν_v = 1 + (1/n_v) Σ_j 1/n_j: the diagonal of the bi-umbrella U² (Kobbelt et al. 1998),
+  // the semi-implicit solve's pivot. 0 for fixed vertices.
+  Array<float> bi_umbrella_diagonal;
+};
+
+// CSR one-rings, vertex→triangle incidence and border flags of the triangles
+// `triangle_indices` (3 × triangle_count, each < vertex_count; unchecked: the asset loader
+// validated them). Degenerate triangles (a repeated index) are ignored for the one-rings.
+// Allocates through `allocator`; throws std::bad_alloc when it fails (callers at the C API
+// catch it).
+FairingTopology build_fairing_topology(const uint32_t* triangle_indices, size_t triangle_count,
+                                       size_t vertex_count, const AllocatorRef& allocator);
+
+// Parameters of one fair_run(). Zero means the documented default (so a zero-initialised
+// struct is the recommended setting), except the two booleans.
+struct FairingParams {
+  bool fold_flow = true;          // run flow (4) (sec. 3.1)
+  bool intersection_flow = true;  // run flow (5) (sec. 3.2)
+  // Explicit (false, the paper's scheme) or semi-implicit bilaplacian (true: the paper's sec. 5
+  // suggestion after Desbrun et al. [11]). See fair.cpp for what each solves.
+  bool semi_implicit = false;
+  // Iterations; each is one step of flow (4) followed by one step of flow (5). 0 = 30.
+  uint32_t iterations = 0;
+  // τ₄, the dimensionless time step of flow (4). The bilaplacian part is stable for
+  // τ₄ (α + 1) λ_max(U²) < 2 with λ_max(U²) ≤ 4; F alone moves a vertex τ₄·E toward the
+  // envelope. 0 = 0.2 (explicit) / 0.5 (semi-implicit).
+  float fold_step = 0.0f;
+  // τ₅, the dimensionless time step of flow (5): each step moves a vertex by
+  // τ₅ · f∇f / max(|∇f|², 4 d*²) (a Gauss-Newton step toward f = 0, which a plain f∇f step
+  // with length³ units is not) plus τ₅ · W U². 0 = 0.3.
+  float intersection_step = 0.0f;
+  // Cells per axis of flow (5)'s grid over the bounding box of skeleton and mesh. 0 = 20
+  // (the paper's 20×20×20). Must not exceed the workspace's grid_size.
+  uint32_t grid_size = 0;
+};
+
+// Every buffer fair_run() needs, sized once for a topology and a grid resolution. Per instance.
+struct FairingWorkspace {
+  explicit FairingWorkspace(const AllocatorRef& a)
+      : umbrella(CallbackAllocator<glm::vec3>(a)), bi_umbrella(CallbackAllocator<glm::vec3>(a)),
+        triangle_force(CallbackAllocator<glm::vec3>(a)), displacement(CallbackAllocator<glm::vec3>(a)),
+        start_positions(CallbackAllocator<glm::vec3>(a)), smoothing_weight(CallbackAllocator<float>(a)),
+        force_direction(CallbackAllocator<glm::vec3>(a)), cell_offsets(CallbackAllocator<uint32_t>(a)),
+        cell_vertices(CallbackAllocator<uint32_t>(a)), cell_max_radius(CallbackAllocator<float>(a)),
+        vertex_cell(CallbackAllocator<uint32_t>(a)) {}
+
+  uint32_t vertex_count = 0;
+  uint32_t triangle_count = 0;
+  uint32_t grid_size = 0;                // largest FairingParams::grid_size this workspace serves
+  Array<glm::vec3> umbrella;             // U(p) per vertex
+  Array<glm::vec3> bi_umbrella;          // U²(p) per vertex
+  Array<glm::vec3> triangle_force;       // E_T(C)·∇E_T(C) per triangle (flow (4)'s F terms)
+  Array<glm::vec3> displacement;         // explicit part of one step, per vertex
+  Array<glm::vec3> start_positions;      // positions before the step (semi-implicit right side)
+  Array<float> smoothing_weight;         // α (flow 4) or W (flow 5) per vertex
+  Array<glm::vec3> force_direction;      // F/|F| per vertex (flow 4), 0 where F = 0
+  Array<uint32_t> cell_offsets;          // grid_size³ + 1: skeletal vertices per cell (CSR)
+  Array<uint32_t> cell_vertices;         // vertex_count
+  Array<float> cell_max_radius;          // grid_size³: largest d in the cell (search pruning)
+  Array<uint32_t> vertex_cell;           // vertex_count: scratch for the bucket sort
+};
+
+// Allocates a workspace for `topology` and grids of up to `grid_size` cells per axis
+// (0 = 20). Throws std::bad_alloc when the allocator fails.
+FairingWorkspace make_fairing_workspace(const FairingTopology& topology, uint32_t grid_size,
+                                        const AllocatorRef& allocator);
+
+// Runs params.iterations fairing iterations on the control mesh `positions` (in/out), each
+// one step of flow (4) then one step of flow (5) — interleaved rather than (4) to convergence
+// then (5), because the runtime warm-starts from the previous frame with a small per-frame
+// budget: a budget spent on (4) alone would never reach (5) while a pose keeps moving.
+// `skeletal` (S', the deformed skeletal mesh) and `radius` (d, the medial radii) are indexed
+// like `positions`; vertex_count must equal topology.vertex_count and the workspace must have
+// been made for this topology (otherwise nothing moves and the result is -1).
+// Returns the residual of the last iteration: the largest vertex motion divided by the
+// bounding-box diagonal of the mesh; a caller may stop iterating once it is below ~1e-4.
+// Non-finite input vertices are left where they are and never spread NaN to their neighbours'
+// results beyond their own one-ring (their forces are skipped).
+float fair_run(const FairingTopology& topology, const glm::vec3* skeletal, const float* radius,
+               glm::vec3* positions, size_t vertex_count, const FairingParams& params,
+               FairingWorkspace& workspace);
+
+// E_T(P) of flow (4) and its gradient: the signed distance from `point` to the convex hull of
+// the three balls (centres[i], radii[i]) — E_T(P) = min over barycentric b of
+// |P − c(b)| − r(b), with c(b) = Σ b_i c_i, r(b) = Σ b_i r_i (DESIGN.md math notes) — and
+// ∇E_T = (P − c(b*)) / |P − c(b*)| by the envelope theorem. Negative inside the hull.
+// Finite for every finite input (degenerate triangle, coincident centres, one ball containing
+// the others). In the tangent-plane case the gradient is that plane's unit normal (also for P
+// in the skeletal triangle); on an edge or a vertex it is 0 where P = c(b*) exactly.
+// Evaluated in double: the tangent-plane solve is ill-conditioned for thin triangles.
+struct HullDistance {
+  float value = 0.0f;
+  glm::vec3 gradient{0.0f};
+};
+HullDistance ball_hull_distance(const glm::vec3& point, const glm::vec3* centres, const float* radii);
+
+}  // namespace skelform::runtime
