@@ -33,7 +33,7 @@ size_t brute_force_count(const TriangleMesh& mesh) {
 
 }  // namespace
 
-TEST_CASE("self_intersection: the triangle test on crossing, separate, touching and coplanar pairs") {
+TEST_CASE("self_intersection: the triangle test on crossing / separate / touching and coplanar pairs") {
   // Two triangles piercing each other (one in z = 0, one in x = 0.2 crossing it).
   CHECK(triangles_intersect({0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {0.2, 0.2, -1}, {0.2, 0.2, 1}, {0.2, -1, 0}));
   // The same pair with the second moved off to x = 2: disjoint.
@@ -51,7 +51,7 @@ TEST_CASE("self_intersection: the triangle test on crossing, separate, touching 
   CHECK(triangles_intersect({-1, 0, 0}, {1, 0, 0}, {0, 0, 1}, {0, -1, 1.8}, {0, 1, 1.8}, {0, 0, 0.3}));
 }
 
-TEST_CASE("self_intersection: two separate crossing triangles count 1, moved apart 0") {
+TEST_CASE("self_intersection: two separate crossing triangles count 1 / moved apart 0") {
   TriangleMesh mesh;
   mesh.positions = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {0.2, 0.2, -1}, {0.2, 0.2, 1}, {0.2, -1, 0}};
   mesh.triangles = {{0, 1, 2}, {3, 4, 5}};
@@ -60,7 +60,7 @@ TEST_CASE("self_intersection: two separate crossing triangles count 1, moved apa
   CHECK(count_self_intersections(mesh) == 0);
 }
 
-TEST_CASE("self_intersection: adjacent triangles are never counted, even folded onto each other") {
+TEST_CASE("self_intersection: adjacent triangles are never counted / even folded onto each other") {
   // Two triangles sharing an edge, the second folded flat onto the first (coplanar overlap),
   // and a third sharing only a vertex, crossing the first.
   TriangleMesh mesh;
@@ -74,7 +74,7 @@ TEST_CASE("self_intersection: adjacent triangles are never counted, even folded 
   CHECK(count_self_intersections(mesh) >= 1);
 }
 
-TEST_CASE("self_intersection: closed shapes have none; a mesh folded through itself has some") {
+TEST_CASE("self_intersection: closed shapes have none - a mesh folded through itself has some") {
   CHECK(count_self_intersections(make_icosphere(1.0, 4)) == 0);
   CHECK(count_self_intersections(make_capsule(0.2, 1.6, 24, 32, 6)) == 0);
 

@@ -192,7 +192,7 @@ TEST_CASE("fair: E_T equals the brute-force minimum over a fine barycentric grid
   }
 }
 
-TEST_CASE("fair: E_T analytic cases: tangent plane, cone frustum, sphere, containing ball") {
+TEST_CASE("fair: E_T analytic cases: tangent plane / cone frustum / sphere / containing ball") {
   // Three equal balls in z = 0: above the triangle, the hull's boundary is the plane z = r.
   const glm::vec3 c[3] = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}};
   const float r[3] = {0.25f, 0.25f, 0.25f};
@@ -225,7 +225,7 @@ TEST_CASE("fair: E_T analytic cases: tangent plane, cone frustum, sphere, contai
   CHECK(e.value == doctest::Approx(2.0).epsilon(1e-6));
 }
 
-TEST_CASE("fair: E_T's gradient matches finite differences; degenerate triangles stay finite") {
+TEST_CASE("fair: E_T's gradient matches finite differences - degenerate triangles stay finite") {
   std::mt19937 random(3);
   std::uniform_real_distribution<float> coordinate(-1.0f, 1.0f), radius(0.0f, 0.5f);
   int compared = 0;
@@ -271,7 +271,7 @@ TEST_CASE("fair: E_T's gradient matches finite differences; degenerate triangles
 
 // ---- flows on analytic scenes -------------------------------------------------------------
 
-TEST_CASE("fair: flow (4) pulls a noisy sphere onto the envelope and smooths it; flow (5) alone too") {
+TEST_CASE("fair: flow (4) pulls a noisy sphere onto the envelope and smooths it - flow (5) alone too") {
   // Skeleton: every skeletal vertex at the centre with d = 1, so every E_T is |P| − 1 and
   // f = |x|² − 1: both flows must bring the noisy sphere of radius ~1.3 back to radius 1, and
   // the bilaplacian terms must not roughen it (Σ|U|² decreases).
@@ -391,7 +391,7 @@ TEST_CASE("fair: bent (120 deg) and twisted (150 deg) capsule: skelform has no s
   }
 }
 
-TEST_CASE("fair: the rest pose is nearly a fixed point; runs are deterministic, finite and scale-invariant") {
+TEST_CASE("fair: the rest pose is nearly a fixed point - runs are deterministic / finite and scale-invariant") {
   const BentCapsule scene;
   std::vector<glm::vec3> rest;
   for (const Vec3& p : scene.rest.positions) rest.push_back(glm::vec3(p));
@@ -451,7 +451,7 @@ TEST_CASE("fair: the rest pose is nearly a fixed point; runs are deterministic, 
   }
 }
 
-TEST_CASE("fair: a non-finite vertex does not spread, mismatched sizes are refused, borders stay fixed") {
+TEST_CASE("fair: a non-finite vertex does not spread / mismatched sizes are refused / borders stay fixed") {
   const BentCapsule scene;
   const std::vector<glm::vec3> skeletal = scene.skeletal_deformed();
   Fairing fairing(scene.rest);
