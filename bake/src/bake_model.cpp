@@ -114,6 +114,7 @@ BakedDeformable bake_deformable(const InputMesh& group, const BakeOptions& optio
   stage("tangent flow");
   TangentFlowOptions flow;
   flow.steps = options.tangent_flow_steps;
+  flow.reference_surface = &welded.mesh;  // the control mesh stays on the dense surface
   apply_tangent_flow(control.mesh, flow);
 
   stage("skeleton");
