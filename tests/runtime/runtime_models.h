@@ -1,0 +1,361 @@
+// Baked assets for the runtime's instance tests (evaluate_test, threads_test, output_test):
+// models are baked inside the test with the baker library (load_mesh, bake_model, baked_glb)
+// and loaded through the public C API, and the ORIGINAL glTF data (positions, authored
+// normals and tangents, skin, joint hierarchy) is read independently with tinygltf, so a
+// test compares the runtime's output with the input file, not with the loader's copy of it.
+//
+// - capsule_model(): a procedural two-joint capsule (normals and tangents authored) plus a
+//   sphere primitive without normals or tangents; always available.
+// - sample_model(name): a model of ../shared/data, or nullptr when absent.
+// Each is baked once per process and kept (immutable assets are shareable).
+#pragma once
+
+#include "skelform/bake/bake.h"
+#include "skelform/bake/gltf_writer.h"
+#include "skelform/bake/input.h"
+#include "skelform/bake/procedural.h"
+#include "skelform/skelform.h"
+#include "test_support.h"
+
+#include <glm/geometric.hpp>
+#include <glm/gtc/matrix_transform.hpp>
+#include <glm/gtc/type_ptr.hpp>
+#include <glm/mat4x4.hpp>
+#include <glm/vec3.hpp>
+#include <glm/vec4.hpp>
+#include <nlohmann/json.hpp>
+#include <tiny_gltf.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+#include <fstream>
+#include <map>
+#include <memory>
+#include <mutex>
+#include <sstream>
+#include <string>
+#include <vector>
+
+namespace skelform::test {
+
+// Original data of one glTF primitive.
+struct OriginalPrimitive {
+  std::vector<glm::vec3> positions;
+  std::vector<glm::vec3> normals;   // empty when not authored
+  std::vector<glm::vec4> tangents;  // empty when not authored
+  std::vector<glm::uvec4> joints;   // JOINTS_0
+  std::vector<glm::vec4> weights;   // WEIGHTS_0
+};
+
+struct RuntimeModel {
+  std::string name;
+  sf_asset* asset = nullptr;
+  std::string baked_glb;                    // the baked file, for tests that load their own asset
+  std::vector<OriginalPrimitive> primitives; // of deformable 0, in its primitive order
+  std::vector<glm::mat4> inverse_bind;       // of deformable 0's skin
+  std::vector<int> joint_parent;             // per skin joint: parent joint index or -1
+  double diagonal = 0;                       // bounding-box diagonal of deformable 0's vertices
+  ~RuntimeModel() { sf_asset_destroy(asset); }
+};
+
+namespace detail {
+
+// Float elements of an accessor (FLOAT, or normalised UNSIGNED_BYTE/SHORT), `components` each.
+inline std::vector<float> read_floats(const tinygltf::Model& model, int accessor_index, int components) {
+  const tinygltf::Accessor& a = model.accessors[size_t(accessor_index)];
+  const tinygltf::BufferView& view = model.bufferViews[size_t(a.bufferView)];
+  const unsigned char* base = model.buffers[size_t(view.buffer)].data.data() + view.byteOffset + a.byteOffset;
+  const size_t size = size_t(tinygltf::GetComponentSizeInBytes(uint32_t(a.componentType)));
+  const size_t stride = view.byteStride ? view.byteStride : size * size_t(components);
+  std::vector<float> out(a.count * size_t(components));
+  for (size_t i = 0; i < a.count; ++i)
+    for (int c = 0; c < components; ++c) {
+      const unsigned char* p = base + i * stride + size_t(c) * size;
+      float v = 0;
+      if (a.componentType == TINYGLTF_COMPONENT_TYPE_FLOAT) std::memcpy(&v, p, 4);
+      else if (a.componentType == TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE) v = float(*p) / (a.normalized ? 255.0f : 1.0f);
+      else {
+        uint16_t u;
+        std::memcpy(&u, p, 2);
+        v = float(u) / (a.normalized ? 65535.0f : 1.0f);
+      }
+      out[i * size_t(components) + size_t(c)] = v;
+    }
+  return out;
+}
+
+inline tinygltf::Model parse_gltf(const std::string& bytes, const std::string& base_dir) {
+  tinygltf::TinyGLTF loader;
+  tinygltf::Model model;
+  std::string error, warning;
+  const bool glb = bytes.size() >= 4 && bytes.compare(0, 4, "glTF") == 0;
+  const bool ok = glb ? loader.LoadBinaryFromMemory(&model, &error, &warning,
+                                                    reinterpret_cast<const unsigned char*>(bytes.data()),
+                                                    unsigned(bytes.size()), base_dir)
+                      : loader.LoadASCIIFromString(&model, &error, &warning, bytes.data(), unsigned(bytes.size()),
+                                                   base_dir);
+  REQUIRE_MESSAGE(ok, error);
+  return model;
+}
+
+inline std::string read_file(const std::filesystem::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  std::ostringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
+
+// Bakes `bytes` (a .glb or .gltf), loads the result, reads the original data of deformable 0.
+inline std::unique_ptr<RuntimeModel> bake_and_load(const std::string& name, const std::string& bytes,
+                                                   const std::string& extension, const std::string& base_dir) {
+  auto result = std::make_unique<RuntimeModel>();
+  result->name = name;
+  const std::vector<unsigned char> input_bytes(bytes.begin(), bytes.end());
+  const bake::InputMesh input = bake::load_mesh_from_memory(input_bytes, extension, base_dir + "/" + name);
+  const bake::BakeResult baked = bake::bake_model(input);
+  result->baked_glb = bake::baked_glb(bytes, base_dir, baked.deformables);
+  char message[512] = {};
+  sf_load_options options{};
+  options.error_message = message;
+  options.error_message_capacity = sizeof message;
+  const sf_result loaded =
+      sf_asset_load_memory(result->baked_glb.data(), result->baked_glb.size(), &options, &result->asset);
+  REQUIRE_MESSAGE(loaded == SF_OK, name << ": " << message);
+
+  const tinygltf::Model model = parse_gltf(bytes, base_dir);
+  sf_deformable_info info{};
+  REQUIRE(sf_asset_deformable_info(result->asset, 0, &info) == SF_OK);
+  glm::vec3 lo(1e30f), hi(-1e30f);
+  for (uint32_t p = 0; p < info.primitive_count; ++p) {
+    sf_primitive_info pinfo{};
+    REQUIRE(sf_asset_primitive_info(result->asset, 0, p, &pinfo) == SF_OK);
+    const tinygltf::Primitive& prim = model.meshes[size_t(info.mesh)].primitives[size_t(pinfo.primitive)];
+    OriginalPrimitive out;
+    const std::vector<float> pos = read_floats(model, prim.attributes.at("POSITION"), 3);
+    for (size_t i = 0; i < pos.size() / 3; ++i) {
+      out.positions.emplace_back(pos[3 * i], pos[3 * i + 1], pos[3 * i + 2]);
+      lo = glm::min(lo, out.positions.back());
+      hi = glm::max(hi, out.positions.back());
+    }
+    if (prim.attributes.count("NORMAL")) {
+      const std::vector<float> n = read_floats(model, prim.attributes.at("NORMAL"), 3);
+      for (size_t i = 0; i < n.size() / 3; ++i) out.normals.emplace_back(n[3 * i], n[3 * i + 1], n[3 * i + 2]);
+    }
+    if (prim.attributes.count("TANGENT")) {
+      const std::vector<float> t = read_floats(model, prim.attributes.at("TANGENT"), 4);
+      for (size_t i = 0; i < t.size() / 4; ++i) out.tangents.emplace_back(t[4 * i], t[4 * i + 1], t[4 * i + 2], t[4 * i + 3]);
+    }
+    if (prim.attributes.count("JOINTS_0") && prim.attributes.count("WEIGHTS_0")) {
+      // JOINTS are unnormalised integers: read_floats gives their values.
+      const std::vector<float> j = read_floats(model, prim.attributes.at("JOINTS_0"), 4);
+      const std::vector<float> w = read_floats(model, prim.attributes.at("WEIGHTS_0"), 4);
+      for (size_t i = 0; i < j.size() / 4; ++i) {
+        out.joints.emplace_back(unsigned(j[4 * i]), unsigned(j[4 * i + 1]), unsigned(j[4 * i + 2]), unsigned(j[4 * i + 3]));
+        out.weights.emplace_back(w[4 * i], w[4 * i + 1], w[4 * i + 2], w[4 * i + 3]);
+      }
+    }
+    result->primitives.push_back(std::move(out));
+  }
+  result->diagonal = double(glm::length(hi - lo));
+  if (info.skin >= 0) {
+    const tinygltf::Skin& skin = model.skins[size_t(info.skin)];
+    const size_t n = skin.joints.size();
+    result->inverse_bind.assign(n, glm::mat4(1.0f));
+    if (skin.inverseBindMatrices >= 0) {
+      const std::vector<float> m = read_floats(model, skin.inverseBindMatrices, 16);
+      for (size_t i = 0; i < n; ++i) result->inverse_bind[i] = glm::make_mat4(&m[16 * i]);
+    }
+    result->joint_parent.assign(n, -1);
+    for (size_t i = 0; i < n; ++i)
+      for (size_t k = 0; k < n; ++k)
+        for (int child : model.nodes[size_t(skin.joints[k])].children)
+          if (child == skin.joints[i]) result->joint_parent[i] = int(k);
+  }
+  return result;
+}
+
+// Appends `data` to `bin` (4-byte aligned) and returns the new bufferView's accessor JSON.
+template <class T>
+nlohmann::json add_accessor(nlohmann::json& document, std::string& bin, const std::vector<T>& data, int component,
+                            const char* type, size_t count) {
+  while (bin.size() % 4) bin.push_back('\0');
+  const size_t offset = bin.size();
+  bin.append(reinterpret_cast<const char*>(data.data()), data.size() * sizeof(T));
+  document["bufferViews"].push_back({{"buffer", 0}, {"byteOffset", offset}, {"byteLength", data.size() * sizeof(T)}});
+  return {{"bufferView", document["bufferViews"].size() - 1}, {"componentType", component}, {"count", count},
+          {"type", type}};
+}
+
+inline int push_accessor(nlohmann::json& document, nlohmann::json accessor) {
+  document["accessors"].push_back(std::move(accessor));
+  return int(document["accessors"].size() - 1);
+}
+
+// A GLB of a capsule along z (radius 0.25, z in [-0.75, 0.75]) with authored normals and
+// tangents, skinned to a root joint at z = -0.5 and a child joint at z = 0 (weights blend
+// over z in [-0.2, 0.2]), plus a primitive without normals or tangents: a sphere at z = 1.1
+// on the child joint. Two joints, two primitives, one skin: the smallest case with a bend.
+inline std::string capsule_glb() {
+  using nlohmann::json;
+  json document = json::parse(R"({
+    "asset": {"version": "2.0", "generator": "skelform runtime tests"},
+    "scene": 0, "scenes": [{"nodes": [0, 1]}],
+    "nodes": [{"name": "capsule", "mesh": 0, "skin": 0},
+              {"name": "root", "translation": [0, 0, -0.5], "children": [2]},
+              {"name": "tip", "translation": [0, 0, 0.5]}],
+    "bufferViews": [], "accessors": []})");
+  std::string bin;
+  json primitives = json::array();
+  const bake::TriangleMesh capsule = bake::make_capsule(0.25, 1.0, 24, 8, 6);
+  bake::TriangleMesh sphere = bake::make_icosphere(0.15, 2);
+  for (auto& p : sphere.positions) p += bake::Vec3(0, 0, 1.1);
+  for (int part = 0; part < 2; ++part) {
+    const bake::TriangleMesh& mesh = part == 0 ? capsule : sphere;
+    const size_t n = mesh.positions.size();
+    std::vector<float> positions, normals, tangents, weights;
+    std::vector<uint16_t> joints;
+    std::vector<uint32_t> indices;
+    std::vector<glm::dvec3> normal_sum(n, glm::dvec3(0.0));
+    for (const auto& t : mesh.triangles) {
+      indices.insert(indices.end(), t.begin(), t.end());
+      const glm::dvec3 face = glm::cross(mesh.positions[t[1]] - mesh.positions[t[0]], mesh.positions[t[2]] - mesh.positions[t[0]]);
+      for (uint32_t v : t) normal_sum[v] += face;
+    }
+    glm::vec3 lo(1e30f), hi(-1e30f);
+    for (size_t i = 0; i < n; ++i) {
+      const glm::vec3 p(mesh.positions[i]);
+      lo = glm::min(lo, p);
+      hi = glm::max(hi, p);
+      positions.insert(positions.end(), {p.x, p.y, p.z});
+      const glm::vec3 normal(glm::normalize(normal_sum[i]));
+      normals.insert(normals.end(), {normal.x, normal.y, normal.z});
+      glm::vec3 around = glm::cross(glm::vec3(0, 0, 1), normal);
+      if (glm::length(around) < 1e-3f) around = glm::vec3(1, 0, 0) - normal.x * normal;
+      around = glm::normalize(around);
+      tangents.insert(tangents.end(), {around.x, around.y, around.z, 1.0f});
+      const float s = std::clamp((p.z + 0.2f) / 0.4f, 0.0f, 1.0f);
+      const float child = part == 0 ? s * s * (3.0f - 2.0f * s) : 1.0f;
+      joints.insert(joints.end(), {0, 1, 0, 0});
+      weights.insert(weights.end(), {1.0f - child, child, 0.0f, 0.0f});
+    }
+    json attributes;
+    json position_accessor = add_accessor(document, bin, positions, 5126, "VEC3", n);
+    position_accessor["min"] = {lo.x, lo.y, lo.z};
+    position_accessor["max"] = {hi.x, hi.y, hi.z};
+    attributes["POSITION"] = push_accessor(document, position_accessor);
+    if (part == 0) {
+      attributes["NORMAL"] = push_accessor(document, add_accessor(document, bin, normals, 5126, "VEC3", n));
+      attributes["TANGENT"] = push_accessor(document, add_accessor(document, bin, tangents, 5126, "VEC4", n));
+    }
+    attributes["JOINTS_0"] = push_accessor(document, add_accessor(document, bin, joints, 5123, "VEC4", n));
+    attributes["WEIGHTS_0"] = push_accessor(document, add_accessor(document, bin, weights, 5126, "VEC4", n));
+    const int index_accessor = push_accessor(document, add_accessor(document, bin, indices, 5125, "SCALAR", indices.size()));
+    primitives.push_back({{"attributes", attributes}, {"indices", index_accessor}});
+  }
+  document["meshes"] = json::array({{{"name", "capsule"}, {"primitives", primitives}}});
+  // Inverse bind matrices: the inverses of the joints' world transforms at bind.
+  std::vector<float> inverse_bind;
+  for (const glm::mat4& m : {glm::translate(glm::mat4(1.0f), glm::vec3(0, 0, 0.5f)), glm::mat4(1.0f)})
+    inverse_bind.insert(inverse_bind.end(), glm::value_ptr(m), glm::value_ptr(m) + 16);
+  const int ibm = push_accessor(document, add_accessor(document, bin, inverse_bind, 5126, "MAT4", 2));
+  document["skins"] = json::array({{{"joints", {1, 2}}, {"inverseBindMatrices", ibm}, {"skeleton", 1}}});
+  while (bin.size() % 4) bin.push_back('\0');
+  document["buffers"] = json::array({{{"byteLength", bin.size()}}});
+
+  std::string text = document.dump();
+  while (text.size() % 4) text.push_back(' ');
+  auto u32 = [](std::string& out, uint32_t v) { out.append(reinterpret_cast<const char*>(&v), 4); };
+  std::string glb = "glTF";
+  u32(glb, 2);
+  u32(glb, uint32_t(12 + 8 + text.size() + 8 + bin.size()));
+  u32(glb, uint32_t(text.size()));
+  u32(glb, 0x4E4F534Au);
+  glb += text;
+  u32(glb, uint32_t(bin.size()));
+  u32(glb, 0x004E4942u);
+  glb += bin;
+  return glb;
+}
+
+inline std::mutex& cache_mutex() {
+  static std::mutex m;
+  return m;
+}
+inline std::map<std::string, std::unique_ptr<RuntimeModel>>& cache() {
+  static std::map<std::string, std::unique_ptr<RuntimeModel>> c;
+  return c;
+}
+
+}  // namespace detail
+
+inline const RuntimeModel& capsule_model() {
+  std::lock_guard<std::mutex> lock(detail::cache_mutex());
+  auto& slot = detail::cache()["capsule"];
+  if (!slot) slot = detail::bake_and_load("capsule.glb", detail::capsule_glb(), ".glb", scratch_dir("runtime_models").string());
+  return *slot;
+}
+
+// The skinned sample models of ../shared/data, by folder name.
+inline const std::vector<std::string>& sample_names() {
+  static const std::vector<std::string> names = {"CesiumMan/CesiumMan.glb", "Fox/Fox.glb", "RiggedFigure/RiggedFigure.glb",
+                                                 "RiggedSimple/RiggedSimple.glb", "SimpleSkin/SimpleSkin.gltf"};
+  return names;
+}
+
+// A baked sample, or nullptr (with a MESSAGE) when the data is absent.
+inline const RuntimeModel* sample_model(const std::string& relative) {
+  const std::filesystem::path path = data_file(relative);
+  if (path.empty()) {
+    MESSAGE("skipped: " << relative << " not found under " << data_dir() << " (set SKELFORM_DATA_DIR)");
+    return nullptr;
+  }
+  std::lock_guard<std::mutex> lock(detail::cache_mutex());
+  auto& slot = detail::cache()[relative];
+  if (!slot)
+    slot = detail::bake_and_load(path.filename().string(), detail::read_file(path), path.extension().string(),
+                                 path.parent_path().string());
+  return slot.get();
+}
+
+// Skinning matrices that bend joint `joint` (and its descendants) by `angle` radians about
+// `axis` through the joint's bind position; every other joint stays at bind (identity).
+inline std::vector<glm::mat4> bend_pose(const RuntimeModel& model, size_t joint, float angle, glm::vec3 axis) {
+  const size_t n = model.inverse_bind.size();
+  const glm::vec3 pivot(glm::inverse(model.inverse_bind[joint])[3]);
+  const glm::mat4 bend = glm::translate(glm::mat4(1.0f), pivot) * glm::rotate(glm::mat4(1.0f), angle, axis) *
+                         glm::translate(glm::mat4(1.0f), -pivot);
+  std::vector<glm::mat4> pose(n, glm::mat4(1.0f));
+  for (size_t j = 0; j < n; ++j)
+    for (int k = int(j); k >= 0; k = model.joint_parent[size_t(k)])
+      if (size_t(k) == joint) pose[j] = bend;
+  return pose;
+}
+
+// Every vertex of deformable 0, primitive by primitive, as written by sf_instance_write.
+struct Evaluated {
+  std::vector<glm::vec3> positions, normals;
+  std::vector<glm::vec4> tangents;  // zero for primitives without tangents
+};
+
+inline Evaluated write_all(const sf_instance* instance, const sf_asset* asset) {
+  Evaluated out;
+  sf_deformable_info info{};
+  REQUIRE(sf_asset_deformable_info(asset, 0, &info) == SF_OK);
+  out.positions.resize(info.vertex_count);
+  out.normals.resize(info.vertex_count);
+  out.tangents.assign(info.vertex_count, glm::vec4(0.0f));
+  for (uint32_t p = 0; p < info.primitive_count; ++p) {
+    sf_primitive_info pinfo{};
+    REQUIRE(sf_asset_primitive_info(asset, 0, p, &pinfo) == SF_OK);
+    sf_vertex_output o{};
+    o.positions = &out.positions[pinfo.first_vertex].x;
+    o.normals = &out.normals[pinfo.first_vertex].x;
+    o.tangents = pinfo.has_tangents ? &out.tangents[pinfo.first_vertex].x : nullptr;
+    o.vertex_capacity = pinfo.vertex_count;
+    REQUIRE(sf_instance_write(instance, p, &o) == SF_OK);
+  }
+  return out;
+}
+
+}  // namespace skelform::test
