@@ -1,0 +1,17 @@
+#!/bin/sh
+# CTest bench_smoke: skelform-bench --json --smoke must print one JSON line per mesh (2) with
+# every method's figure. Skips (77) without the shared data.
+#
+#   bench_smoke.sh SKELFORM_BENCH DATA_DIR
+BENCH=$1 DATA=${SKELFORM_DATA_DIR:-$2}
+if [ ! -f "$DATA/CesiumMan/CesiumMan.glb" ]; then
+  echo "skipped: $DATA/CesiumMan/CesiumMan.glb not found (set SKELFORM_DATA_DIR)"
+  exit 77
+fi
+out=$("$BENCH" --json --smoke) || { echo "FAIL: skelform-bench exited $?"; exit 1; }
+echo "$out"
+lines=$(printf '%s\n' "$out" | grep -c '^{"mesh": ".*", "vertices": [0-9]*, "ms": {"skelform": [0-9.]*, "lbs": [0-9.]*, "dqs": [0-9.]*, "delta_mush": [0-9.]*}}$')
+if [ "$lines" -ne 2 ]; then
+  echo "FAIL: expected 2 JSON lines, got $lines"
+  exit 1
+fi

@@ -1,0 +1,283 @@
+// skelform-bench: per-frame cost (DESIGN.md "Metrics"): wall time of one evaluation on one
+// core, in one process, on the same dense meshes and poses, for
+//   skelform    sf_instance_evaluate with default options (incremental), then sf_instance_write
+//               of positions and normals for every primitive
+//   lbs, dqs    the runtime's baselines (SF_METHOD_LBS / SF_METHOD_DQS), same calls
+//   delta_mush  Delta Mush with 10 smoothing iterations (bench/delta_mush.h), positions only
+// on CesiumMan (3,273 vertices) and CesiumMan Loop-subdivided twice (~75K triangles), posed by
+// CesiumMan's own animation sampled at kPoseCount times (samples/common/gltf_animation.h).
+//
+//   skelform-bench [Google Benchmark flags]     Google Benchmark tables
+//   skelform-bench --json [--smoke] [--cpu]     one JSON line per mesh:
+//     {"mesh": name, "vertices": n, "ms": {"skelform": .., "lbs": .., "dqs": .., "delta_mush": ..}}
+//     each figure the median of timed evaluations (--smoke: a handful, for CI); wall time, or
+//     with --cpu the thread's CPU time (the fairer figure on a loaded machine)
+//
+// Baked models are cached in $TMPDIR/skelform-bench-cache (bench_models.h). Without the
+// shared data (SKELFORM_DATA_DIR) it prints a message and exits 0.
+#include "bench_models.h"
+#include "delta_mush.h"
+#include "gltf_animation.h"
+#include "skelform/bake/input.h"
+#include "skelform/skelform.h"
+
+#include <benchmark/benchmark.h>
+
+#include <algorithm>
+#include <array>
+#include <chrono>
+#include <ctime>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <map>
+#include <memory>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+namespace {
+
+using skelform::bench::DeltaMush;
+
+constexpr int kPoseCount = 8;
+
+enum class Method { skelform, lbs, dqs, delta_mush };
+constexpr std::array<Method, 4> kMethods = {Method::skelform, Method::lbs, Method::dqs, Method::delta_mush};
+
+const char* method_name(Method method) {
+  switch (method) {
+    case Method::skelform: return "skelform";
+    case Method::lbs: return "lbs";
+    case Method::dqs: return "dqs";
+    case Method::delta_mush: return "delta_mush";
+  }
+  return "?";
+}
+
+struct MeshCase {
+  const char* name;
+  int loop_levels;  // Loop subdivisions of CesiumMan
+};
+constexpr std::array<MeshCase, 2> kMeshes = {MeshCase{"CesiumMan", 0}, MeshCase{"CesiumMan_loop2", 2}};
+
+void check(sf_result result, const char* call, const sf_instance* instance = nullptr) {
+  if (result != SF_OK)
+    throw std::runtime_error(std::string(call) + ": " + sf_result_string(result) +
+                             (instance ? std::string(" ") + sf_instance_last_error(instance) : std::string()));
+}
+
+// One mesh ready to evaluate: the baked asset, an instance per runtime method, Delta Mush,
+// the poses and the output buffers.
+class Scene {
+ public:
+  explicit Scene(const MeshCase& mesh_case) : name_(mesh_case.name) {
+    const std::string baked = skelform::bench::cesium_man_baked(mesh_case.loop_levels).string();
+    const std::string unbaked = skelform::bench::cesium_man_subdivided(mesh_case.loop_levels).string();
+    char message[512] = "";
+    sf_load_options load_options{};
+    load_options.error_message = message;
+    load_options.error_message_capacity = sizeof(message);
+    if (sf_asset_load_file(baked.c_str(), &load_options, &asset_) != SF_OK)
+      throw std::runtime_error(baked + ": " + message);
+    if (sf_asset_deformable_count(asset_) != 1) throw std::runtime_error(baked + ": expected one deformable");
+    check(sf_asset_deformable_info(asset_, 0, &info_), "sf_asset_deformable_info");
+    for (uint32_t p = 0; p < info_.primitive_count; ++p) {
+      sf_primitive_info primitive{};
+      check(sf_asset_primitive_info(asset_, 0, p, &primitive), "sf_asset_primitive_info");
+      primitives_.push_back(primitive);
+    }
+    positions_.resize(3 * size_t{info_.vertex_count});
+    normals_.resize(3 * size_t{info_.vertex_count});
+    for (size_t m = 0; m < 3; ++m) check(sf_instance_create(asset_, 0, &instances_[m]), "sf_instance_create");
+
+    // Poses: the original CesiumMan's animation (the subdivided file carries the same skin).
+    const skelform::samples::GltfAnimation gltf = skelform::samples::GltfAnimation::load_file(unbaked);
+    if (gltf.animations().empty()) throw std::runtime_error(unbaked + " has no animation");
+    const skelform::samples::AnimationInfo& animation = gltf.animations()[0];
+    for (int i = 0; i < kPoseCount; ++i) {
+      const double time = animation.start + animation.duration() * (i + 0.5) / kPoseCount;
+      poses_.push_back(gltf.joint_matrices(static_cast<size_t>(info_.skin), 0, time));
+    }
+
+    // Delta Mush on the same original vertices (the baker's loader gives them in the same
+    // order as sf_instance_write: primitives concatenated in file order).
+    const skelform::bake::InputMesh input = skelform::bake::load_mesh(unbaked);
+    if (input.positions.size() != info_.vertex_count)
+      throw std::runtime_error(unbaked + ": vertex count differs between the loader and the runtime");
+    std::vector<float> rest(3 * input.positions.size());
+    for (size_t v = 0; v < input.positions.size(); ++v)
+      for (int c = 0; c < 3; ++c) rest[3 * v + c] = static_cast<float>(input.positions[v][c]);
+    std::vector<uint32_t> triangles;
+    for (const auto& t : input.triangles) triangles.insert(triangles.end(), t.begin(), t.end());
+    const size_t sets = input.joint_sets.size();
+    std::vector<uint16_t> joints(input.positions.size() * 4 * sets);
+    std::vector<float> weights(joints.size());
+    for (size_t v = 0; v < input.positions.size(); ++v)
+      for (size_t s = 0; s < sets; ++s)
+        for (size_t k = 0; k < 4; ++k) {
+          joints[(v * sets + s) * 4 + k] = input.joint_sets[s][v][k];
+          weights[(v * sets + s) * 4 + k] = input.weight_sets[s][v][k];
+        }
+    delta_mush_ = std::make_unique<DeltaMush>(rest, triangles, joints, weights, 4 * sets);
+  }
+  Scene(const Scene&) = delete;
+  Scene& operator=(const Scene&) = delete;
+  ~Scene() {
+    for (sf_instance* instance : instances_) sf_instance_destroy(instance);
+    sf_asset_destroy(asset_);
+  }
+
+  const std::string& name() const { return name_; }
+  size_t vertex_count() const { return info_.vertex_count; }
+  size_t pose_count() const { return poses_.size(); }
+
+  // One frame of `method` at pose `pose`: what an engine pays per character per frame.
+  void evaluate(Method method, size_t pose) {
+    const std::vector<float>& matrices = poses_[pose % poses_.size()];
+    if (method == Method::delta_mush) {
+      delta_mush_->deform(matrices.data(), info_.joint_count, positions_.data());
+      return;
+    }
+    sf_instance* instance = instances_[static_cast<size_t>(method)];
+    check(sf_instance_set_joint_matrices(instance, matrices.data(), info_.joint_count, 0),
+          "sf_instance_set_joint_matrices", instance);
+    sf_eval_options options{};  // defaults (fairing as the runtime ships it), incremental
+    options.method = method == Method::lbs ? SF_METHOD_LBS : method == Method::dqs ? SF_METHOD_DQS : SF_METHOD_SKELFORM;
+    check(sf_instance_evaluate(instance, &options), "sf_instance_evaluate", instance);
+    for (uint32_t p = 0; p < primitives_.size(); ++p) {
+      sf_vertex_output output{};
+      output.positions = positions_.data() + 3 * size_t{primitives_[p].first_vertex};
+      output.normals = normals_.data() + 3 * size_t{primitives_[p].first_vertex};
+      output.vertex_capacity = primitives_[p].vertex_count;
+      check(sf_instance_write(instance, p, &output), "sf_instance_write", instance);
+    }
+  }
+
+  const float* positions() const { return positions_.data(); }
+
+ private:
+  std::string name_;
+  sf_asset* asset_ = nullptr;
+  sf_deformable_info info_{};
+  std::vector<sf_primitive_info> primitives_;
+  std::array<sf_instance*, 3> instances_{};  // indexed by Method (skelform, lbs, dqs)
+  std::vector<std::vector<float>> poses_;
+  std::unique_ptr<DeltaMush> delta_mush_;
+  std::vector<float> positions_, normals_;
+};
+
+// Scenes are expensive (bake on first use): built once per process.
+Scene& scene(const MeshCase& mesh_case) {
+  static std::map<std::string, std::unique_ptr<Scene>> scenes;
+  std::unique_ptr<Scene>& slot = scenes[mesh_case.name];
+  if (!slot) slot = std::make_unique<Scene>(mesh_case);
+  return *slot;
+}
+
+// Milliseconds of wall time, or of this thread's CPU time.
+double now_ms(bool cpu_time) {
+  if (cpu_time) {
+    timespec t{};
+    clock_gettime(CLOCK_THREAD_CPUTIME_ID, &t);
+    return static_cast<double>(t.tv_sec) * 1e3 + static_cast<double>(t.tv_nsec) * 1e-6;
+  }
+  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now().time_since_epoch()).count();
+}
+
+// Median time of `samples` single evaluations, after one warm-up pass over the poses (the
+// incremental evaluation then runs in its steady state).
+double median_ms(Scene& s, Method method, int samples, bool cpu_time) {
+  for (size_t pose = 0; pose < s.pose_count(); ++pose) s.evaluate(method, pose);
+  std::vector<double> times;
+  for (int i = 0; i < samples; ++i) {
+    const double start = now_ms(cpu_time);
+    s.evaluate(method, static_cast<size_t>(i));
+    times.push_back(now_ms(cpu_time) - start);
+    benchmark::DoNotOptimize(s.positions());
+  }
+  std::nth_element(times.begin(), times.begin() + times.size() / 2, times.end());
+  return times[times.size() / 2];
+}
+
+int run_json(bool smoke, bool cpu_time) {
+  if (!skelform::bench::cesium_man_path()) {
+    std::fprintf(stderr, "skelform-bench: skipped: CesiumMan/CesiumMan.glb not found under %s (set SKELFORM_DATA_DIR)\n",
+                 skelform::bench::data_dir().string().c_str());
+    return 0;
+  }
+  const int samples = smoke ? 5 : 101;
+  for (const MeshCase& mesh_case : kMeshes) {
+    Scene& s = scene(mesh_case);
+    std::string ms;
+    for (Method method : kMethods) {
+      char item[96];
+      std::snprintf(item, sizeof(item), "%s\"%s\": %.4f", ms.empty() ? "" : ", ", method_name(method),
+                    median_ms(s, method, samples, cpu_time));
+      ms += item;
+    }
+    std::printf("{\"mesh\": \"%s\", \"vertices\": %zu, \"ms\": {%s}}\n", s.name().c_str(), s.vertex_count(), ms.c_str());
+    std::fflush(stdout);
+  }
+  return 0;
+}
+
+void register_benchmarks() {
+  for (const MeshCase& mesh_case : kMeshes)
+    for (Method method : kMethods) {
+      const std::string name = std::string("evaluate/") + mesh_case.name + "/" + method_name(method);
+      benchmark::RegisterBenchmark(name.c_str(), [mesh_case, method](benchmark::State& state) {
+        if (!skelform::bench::cesium_man_path()) {
+          state.SkipWithError(("CesiumMan/CesiumMan.glb not found under " + skelform::bench::data_dir().string() +
+                               " (set SKELFORM_DATA_DIR)").c_str());
+          return;
+        }
+        Scene& s = scene(mesh_case);
+        for (size_t pose = 0; pose < s.pose_count(); ++pose) s.evaluate(method, pose);  // warm-up
+        size_t pose = 0;
+        for (auto _ : state) {
+          s.evaluate(method, pose++);
+          benchmark::DoNotOptimize(s.positions());
+        }
+        state.counters["vertices"] = static_cast<double>(s.vertex_count());
+      })->Unit(benchmark::kMillisecond);
+    }
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  bool json = false, smoke = false, cpu_time = false;
+  std::vector<char*> passed{argv[0]};
+  for (int i = 1; i < argc; ++i) {
+    if (std::strcmp(argv[i], "--json") == 0) json = true;
+    else if (std::strcmp(argv[i], "--smoke") == 0) smoke = true;
+    else if (std::strcmp(argv[i], "--cpu") == 0) cpu_time = true;
+    else passed.push_back(argv[i]);
+  }
+  try {
+    if (json) {
+      if (passed.size() > 1) {
+        std::fprintf(stderr, "skelform-bench: error: --json takes only --smoke and --cpu, got %s\n", passed[1]);
+        return 1;
+      }
+      return run_json(smoke, cpu_time);
+    }
+    if (cpu_time) {
+      std::fprintf(stderr, "skelform-bench: error: --cpu belongs to --json (Google Benchmark prints CPU time itself)\n");
+      return 1;
+    }
+    static char min_time[] = "--benchmark_min_time=0.01";
+    if (smoke) passed.push_back(min_time);
+    int count = static_cast<int>(passed.size());
+    benchmark::Initialize(&count, passed.data());
+    if (benchmark::ReportUnrecognizedArguments(count, passed.data())) return 1;
+    register_benchmarks();
+    benchmark::RunSpecifiedBenchmarks();
+    benchmark::Shutdown();
+    return 0;
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "skelform-bench: error: %s\n", e.what());
+    return 1;
+  }
+}
