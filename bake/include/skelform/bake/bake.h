@@ -31,7 +31,7 @@ struct DeformableReport {
   int subdivision_level = 0;
   size_t refined_triangles = 0;
   bool flat = false;             // no volume: zero-radius skeleton S = M (see bake_model.cpp)
-  double skeleton_inside = 0;    // fraction of skeletal vertices inside the welded dense mesh
+  double skeleton_inside = 0;    // fraction of skeletal vertices inside the control mesh
   double residual_share = 0;     // share of dense vertices with tangential residual > 1e-3·diag
   double rest_error = 0;         // max rest-pose reconstruction error / diagonal (float path)
 };
