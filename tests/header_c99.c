@@ -11,5 +11,20 @@ int main(void) {
   }
   if (strcmp(sf_result_string(SF_OK), "SF_OK") != 0) return 1;
   if (strcmp(sf_result_string((sf_result)12345), "SF_ERROR_UNKNOWN") != 0) return 1;
+  {
+    /* Loading from C: zeroed options are the defaults, and bad input is an error code with a
+     * message, never a crash. */
+    char message[128] = "";
+    sf_load_options options;
+    sf_asset* asset = NULL;
+    memset(&options, 0, sizeof options);
+    options.error_message = message;
+    options.error_message_capacity = sizeof message;
+    if (sf_asset_load_memory("garbage", 7, &options, &asset) != SF_ERROR_INVALID_DATA || asset != NULL) return 1;
+    if (message[0] == '\0') return 1;
+    if (sf_asset_load_memory(NULL, 0, NULL, &asset) != SF_ERROR_INVALID_ARGUMENT) return 1;
+    if (sf_asset_deformable_count(NULL) != 0) return 1;
+    sf_asset_destroy(NULL);
+  }
   return 0;
 }

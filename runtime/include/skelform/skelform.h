@@ -127,7 +127,10 @@ typedef struct sf_load_options {
 /* Loads a baked asset from glTF bytes in memory (.glb, or .gltf JSON whose buffers are data
  * URIs). Every array of the extension is validated (counts, index ranges, finite values,
  * version) before use. The bytes are not referenced after the call. On failure *out_asset
- * is NULL. */
+ * is NULL. Memory: everything the asset keeps comes from options->allocator; the glTF parse
+ * itself (tinygltf's document and the loader's temporaries, freed before the call returns)
+ * uses the default heap (operator new). A .gltf loaded from memory never reads files: an
+ * external buffer URI gives SF_ERROR_UNSUPPORTED. */
 SF_API sf_result sf_asset_load_memory(const void* data, size_t size, const sf_load_options* options,
                                       sf_asset** out_asset);
 

@@ -1,0 +1,560 @@
+// Runtime asset loading (runtime/src/asset_load.cpp, api_asset.cpp): bad arguments are
+// refused first; a real bake loads from memory (.glb, .gltf with a data URI) and from files
+// with the counts the baker wrote; the rest evaluation reproduces the original vertices;
+// every kind of corruption of a baked file gives its own sf_result and a message, never a
+// crash; a caller's allocator is used for everything the asset owns and balances.
+#include "asset.h"
+#include "dss_frame.h"
+#include "refine.h"
+#include "skelform/bake/bake.h"
+#include "skelform/bake/gltf_writer.h"
+#include "skelform/bake/input.h"
+#include "skelform/skelform.h"
+#include "test_support.h"
+
+#include <doctest/doctest.h>
+#include <glm/geometric.hpp>
+#include <nlohmann/json.hpp>
+
+#include <atomic>
+#include <cmath>
+#include <cstdint>
+#include <cstdlib>
+#include <cstring>
+#include <fstream>
+#include <limits>
+#include <map>
+#include <mutex>
+#include <string>
+#include <vector>
+
+namespace {
+
+using Json = nlohmann::ordered_json;
+
+std::string read_file(const std::filesystem::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
+}
+
+void write_file(const std::filesystem::path& path, const std::string& bytes) {
+  std::ofstream out(path, std::ios::binary);
+  out.write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
+}
+
+struct Baked {
+  std::string glb;
+  skelform::bake::BakeResult result;
+};
+
+// Bakes a sample once per process (baking takes seconds; the tests only read the result).
+const Baked& baked_sample(const std::filesystem::path& path) {
+  static std::mutex mutex;
+  static std::map<std::string, Baked> cache;
+  std::lock_guard<std::mutex> lock(mutex);
+  auto found = cache.find(path.string());
+  if (found != cache.end()) return found->second;
+  Baked baked;
+  baked.result = skelform::bake::bake_model(skelform::bake::load_mesh(path.string()));
+  baked.glb = skelform::bake::baked_glb(read_file(path), path.parent_path().string() + "/", baked.result.deformables);
+  return cache.emplace(path.string(), std::move(baked)).first->second;
+}
+
+// Outcome of one load: its result and message; the asset is destroyed at once.
+struct Load {
+  sf_result result = SF_OK;
+  std::string message;
+  sf_asset* asset = nullptr;
+  Load() = default;
+  Load(const Load&) = delete;
+  Load& operator=(const Load&) = delete;
+  ~Load() { sf_asset_destroy(asset); }
+};
+
+void load_memory(const std::string& bytes, Load& out, const sf_allocator* allocator = nullptr) {
+  char message[512] = "untouched";
+  sf_load_options options{};
+  options.allocator = allocator;
+  options.error_message = message;
+  options.error_message_capacity = sizeof message;
+  out.result = sf_asset_load_memory(bytes.data(), bytes.size(), &options, &out.asset);
+  out.message = message;
+}
+
+bool contains(const std::string& text, const std::string& part) { return text.find(part) != std::string::npos; }
+
+uint32_t u32_at(const std::string& bytes, size_t offset) {
+  uint32_t v;
+  std::memcpy(&v, bytes.data() + offset, 4);
+  return v;
+}
+
+// A GLB split into its JSON (editable, member order kept) and BIN chunk, and put back.
+struct Glb {
+  Json json;
+  std::string bin;
+
+  explicit Glb(const std::string& glb) {
+    const uint32_t json_length = u32_at(glb, 12);
+    json = Json::parse(glb.substr(20, json_length));
+    const size_t bin_header = 20 + json_length;
+    if (bin_header + 8 <= glb.size()) bin = glb.substr(bin_header + 8, u32_at(glb, bin_header));
+  }
+
+  std::string bytes() const {
+    std::string text = json.dump();
+    while (text.size() % 4) text += ' ';
+    std::string out = "glTF";
+    const auto put = [&out](uint32_t v) { out.append(reinterpret_cast<const char*>(&v), 4); };
+    put(2);
+    put(static_cast<uint32_t>(12 + 8 + text.size() + (bin.empty() ? 0 : 8 + bin.size())));
+    put(static_cast<uint32_t>(text.size()));
+    put(0x4E4F534Au);
+    out += text;
+    if (!bin.empty()) {
+      put(static_cast<uint32_t>(bin.size()));
+      put(0x004E4942u);
+      out += bin;
+    }
+    return out;
+  }
+
+  Json& extension() { return json["extensions"]["SKELFORM_skeletal_deformation"]; }
+  Json& deformable() { return extension()["deformables"][0]; }
+  Json& accessor(const char* group, const char* name) {
+    return json["accessors"][deformable()[group][name].get<size_t>()];
+  }
+  // Byte offset in BIN of element `element` (of `element_bytes`) of an extension accessor.
+  size_t offset_of(Json& accessor, size_t element, size_t element_bytes) {
+    const Json& view = json["bufferViews"][accessor["bufferView"].get<size_t>()];
+    return view.value("byteOffset", size_t{0}) + accessor.value("byteOffset", size_t{0}) + element * element_bytes;
+  }
+  void put_u32(size_t offset, uint32_t value) { std::memcpy(&bin[offset], &value, 4); }
+  void put_u16(size_t offset, uint16_t value) { std::memcpy(&bin[offset], &value, 2); }
+  void put_f32(size_t offset, float value) { std::memcpy(&bin[offset], &value, 4); }
+  float f32(size_t offset) const {
+    float v;
+    std::memcpy(&v, bin.data() + offset, 4);
+    return v;
+  }
+};
+
+std::string base64(const std::string& bytes) {
+  static const char table[] = "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
+  std::string out;
+  size_t i = 0;
+  for (; i + 2 < bytes.size(); i += 3) {
+    const uint32_t n = uint32_t(uint8_t(bytes[i])) << 16 | uint32_t(uint8_t(bytes[i + 1])) << 8 | uint8_t(bytes[i + 2]);
+    for (int s = 18; s >= 0; s -= 6) out += table[(n >> s) & 63];
+  }
+  if (i < bytes.size()) {
+    uint32_t n = uint32_t(uint8_t(bytes[i])) << 16;
+    if (i + 1 < bytes.size()) n |= uint32_t(uint8_t(bytes[i + 1])) << 8;
+    out += table[(n >> 18) & 63];
+    out += table[(n >> 12) & 63];
+    out += i + 1 < bytes.size() ? table[(n >> 6) & 63] : '=';
+    out += '=';
+  }
+  return out;
+}
+
+// Checks a corrupted copy gives `expected` with a message naming `part`.
+void check_corrupt(const Glb& glb, sf_result expected, const std::string& part) {
+  Load load;
+  load_memory(glb.bytes(), load);
+  CHECK_MESSAGE(load.result == expected, load.message);
+  CHECK(load.asset == nullptr);
+  CHECK_MESSAGE(contains(load.message, part), load.message);
+}
+
+// Counting allocator: every block is tracked so a test sees leaks and double frees.
+struct CountingHeap {
+  std::atomic<long> allocations{0};
+  std::atomic<long> frees{0};
+  std::atomic<long> live{0};
+  long fail_after = -1;  // >= 0: the allocation with this index (and later ones) fail
+};
+
+void* counting_alloc(void* user, size_t size, size_t align) {
+  auto* heap = static_cast<CountingHeap*>(user);
+  const long index = heap->allocations.fetch_add(1);
+  if (heap->fail_after >= 0 && index >= heap->fail_after) {
+    heap->allocations.fetch_sub(1);
+    return nullptr;
+  }
+  CHECK(align >= 1);
+  CHECK((align & (align - 1)) == 0);
+  void* p = std::aligned_alloc(align, (size + align - 1) / align * align);
+  if (p) ++heap->live;
+  return p;
+}
+
+void counting_free(void* user, void* ptr) {
+  if (!ptr) return;
+  auto* heap = static_cast<CountingHeap*>(user);
+  ++heap->frees;
+  --heap->live;
+  std::free(ptr);
+}
+
+}  // namespace
+
+TEST_SUITE("asset") {
+
+TEST_CASE("default input is invalid: null pointers, empty input, garbage and bad options are refused") {
+  sf_asset* asset = reinterpret_cast<sf_asset*>(uintptr_t{1});
+  const char bytes[] = "glTF";
+  CHECK(sf_asset_load_memory(bytes, 4, nullptr, nullptr) == SF_ERROR_INVALID_ARGUMENT);
+  CHECK(sf_asset_load_memory(nullptr, 4, nullptr, &asset) == SF_ERROR_INVALID_ARGUMENT);
+  CHECK(asset == nullptr);
+  CHECK(sf_asset_load_memory(bytes, 0, nullptr, &asset) == SF_ERROR_INVALID_ARGUMENT);
+  CHECK(sf_asset_load_file(nullptr, nullptr, &asset) == SF_ERROR_INVALID_ARGUMENT);
+  CHECK(sf_asset_load_file("", nullptr, &asset) == SF_ERROR_INVALID_ARGUMENT);
+  CHECK(sf_asset_load_file("x.glb", nullptr, nullptr) == SF_ERROR_INVALID_ARGUMENT);
+
+  Load garbage;
+  load_memory("this is not a glTF file at all", garbage);
+  CHECK(garbage.result == SF_ERROR_INVALID_DATA);
+  CHECK(contains(garbage.message, "not a valid glTF"));
+  Load magic;
+  load_memory(std::string("glTF\x02\0\0\0\xff\xff\xff\x7f", 12), magic);
+  CHECK(magic.result == SF_ERROR_INVALID_DATA);
+  CHECK(contains(magic.message, "truncated .glb"));
+  Load json;
+  load_memory("{\"asset\":{\"version\":\"2.0\"}}", json);
+  CHECK(json.result == SF_ERROR_INVALID_DATA);
+  CHECK(contains(json.message, "not a skelform-baked asset (run skelform-bake)"));
+
+  char message[64];
+  sf_load_options options{};
+  options.error_message = message;
+  options.error_message_capacity = sizeof message;
+  CHECK(sf_asset_load_file("/nonexistent/dir/model.glb", &options, &asset) == SF_ERROR_IO);
+  CHECK(contains(message, "/nonexistent/dir/model.glb"));
+  CHECK(sf_asset_load_file(skelform::test::scratch_dir("asset").string().c_str(), &options, &asset) == SF_ERROR_IO);
+  CHECK(contains(message, "directory"));
+
+  // The message is cut to the caller's capacity and always terminated.
+  options.error_message_capacity = 8;
+  std::memset(message, 'x', sizeof message);
+  CHECK(sf_asset_load_memory("garbage!", 8, &options, &asset) == SF_ERROR_INVALID_DATA);
+  CHECK(std::strlen(message) == 7);
+  CHECK(message[8] == 'x');
+
+  // Half an allocator would free into another heap than it allocated from.
+  sf_allocator half{};
+  half.alloc = counting_alloc;
+  options.allocator = &half;
+  options.error_message_capacity = sizeof message;
+  CHECK(sf_asset_load_memory("garbage!", 8, &options, &asset) == SF_ERROR_INVALID_ARGUMENT);
+  CHECK(contains(message, "alloc and free"));
+
+  CHECK(sf_asset_deformable_count(nullptr) == 0);
+  sf_deformable_info info;
+  sf_primitive_info primitive;
+  CHECK(sf_asset_deformable_info(nullptr, 0, &info) == SF_ERROR_INVALID_ARGUMENT);
+  CHECK(sf_asset_primitive_info(nullptr, 0, 0, &primitive) == SF_ERROR_INVALID_ARGUMENT);
+  sf_asset_destroy(nullptr);
+}
+
+TEST_CASE("a baked RiggedSimple loads from memory and from a file with the baker's counts") {
+  SKELFORM_REQUIRE_DATA(path, "RiggedSimple/RiggedSimple.glb");
+  const Baked& baked = baked_sample(path);
+  const std::filesystem::path file = skelform::test::scratch_dir("asset") / "RiggedSimple.skf.glb";
+  write_file(file, baked.glb);
+
+  Load memory;
+  load_memory(baked.glb, memory);
+  REQUIRE_MESSAGE(memory.result == SF_OK, memory.message);
+  CHECK(memory.message.empty());
+  sf_asset* from_file = nullptr;
+  REQUIRE(sf_asset_load_file(file.string().c_str(), nullptr, &from_file) == SF_OK);
+
+  for (const sf_asset* asset : {static_cast<const sf_asset*>(memory.asset), static_cast<const sf_asset*>(from_file)}) {
+    REQUIRE(sf_asset_deformable_count(asset) == baked.result.deformables.size());
+    for (uint32_t d = 0; d < sf_asset_deformable_count(asset); ++d) {
+      const skelform::bake::BakedDeformable& expected = baked.result.deformables[d];
+      sf_deformable_info info;
+      REQUIRE(sf_asset_deformable_info(asset, d, &info) == SF_OK);
+      CHECK(info.mesh == expected.mesh);
+      CHECK(info.node == expected.node);
+      CHECK(info.skin == expected.skin);
+      CHECK(info.joint_count > 0);
+      CHECK(info.primitive_count == expected.primitives.size());
+      CHECK(info.vertex_count == expected.dense_vertex_count);
+      CHECK(info.control_vertex_count == expected.control_positions.size());
+      CHECK(info.subdivision_level == expected.subdivision_level);
+      uint32_t first = 0;
+      for (uint32_t p = 0; p < info.primitive_count; ++p) {
+        sf_primitive_info primitive;
+        REQUIRE(sf_asset_primitive_info(asset, d, p, &primitive) == SF_OK);
+        CHECK(primitive.primitive == expected.primitives[p]);
+        CHECK(primitive.first_vertex == first);
+        first += primitive.vertex_count;
+      }
+      CHECK(first == info.vertex_count);
+      sf_primitive_info primitive;
+      CHECK(sf_asset_primitive_info(asset, d, info.primitive_count, &primitive) == SF_ERROR_INVALID_ARGUMENT);
+    }
+    sf_deformable_info info;
+    CHECK(sf_asset_deformable_info(asset, sf_asset_deformable_count(asset), &info) == SF_ERROR_INVALID_ARGUMENT);
+  }
+  sf_asset_destroy(from_file);
+}
+
+TEST_CASE("a .gltf with a data URI loads from memory; with an external .bin only from its file") {
+  SKELFORM_REQUIRE_DATA(path, "RiggedSimple/RiggedSimple.glb");
+  Glb glb(baked_sample(path).glb);
+  const std::string bin = glb.bin;
+  Json document = glb.json;
+  document["buffers"][0]["uri"] = "data:application/octet-stream;base64," + base64(bin);
+  Load embedded;
+  load_memory(document.dump(), embedded);
+  CHECK_MESSAGE(embedded.result == SF_OK, embedded.message);
+
+  const std::filesystem::path dir = skelform::test::scratch_dir("asset/external");
+  document["buffers"][0]["uri"] = "RiggedSimple.skf.bin";
+  write_file(dir / "RiggedSimple.skf.gltf", document.dump());
+  write_file(dir / "RiggedSimple.skf.bin", bin);
+  sf_asset* asset = nullptr;
+  CHECK(sf_asset_load_file((dir / "RiggedSimple.skf.gltf").string().c_str(), nullptr, &asset) == SF_OK);
+  sf_asset_destroy(asset);
+
+  Load external;  // from memory nothing outside the bytes is read
+  load_memory(document.dump(), external);
+  CHECK(external.result == SF_ERROR_UNSUPPORTED);
+  CHECK(contains(external.message, "RiggedSimple.skf.bin"));
+
+  std::filesystem::remove(dir / "RiggedSimple.skf.bin");
+  char message[256] = "";
+  sf_load_options options{};
+  options.error_message = message;
+  options.error_message_capacity = sizeof message;
+  CHECK(sf_asset_load_file((dir / "RiggedSimple.skf.gltf").string().c_str(), &options, &asset) == SF_ERROR_IO);
+  CHECK(asset == nullptr);
+  CHECK(contains(message, "RiggedSimple.skf.bin"));
+}
+
+TEST_CASE("the rest evaluation reproduces the original vertices; Fox (no NORMAL) gets unit rest normals") {
+  for (const char* sample : {"RiggedSimple/RiggedSimple.glb", "Fox/Fox.glb"}) {
+    SKELFORM_REQUIRE_DATA(path, sample);
+    Load load;
+    load_memory(baked_sample(path).glb, load);
+    REQUIRE_MESSAGE(load.result == SF_OK, load.message);
+    for (const skelform::runtime::Deformable& d : load.asset->deformables) {
+      std::vector<glm::vec3> refined(d.refined_vertex_count), normals(d.refined_vertex_count);
+      skelform::runtime::refine_positions(d, d.control_positions.data(), refined.data());
+      skelform::runtime::refined_normals(d, refined.data(), normals.data());
+      glm::vec3 low(std::numeric_limits<float>::max()), high(-std::numeric_limits<float>::max());
+      for (const glm::vec3& p : d.rest_positions) {
+        low = glm::min(low, p);
+        high = glm::max(high, p);
+      }
+      const float diagonal = glm::length(high - low);
+      float worst = 0;
+      REQUIRE(d.rest_frames.size() == d.vertex_count);
+      for (uint32_t v = 0; v < d.vertex_count; ++v) {
+        const skelform::dss::SurfaceFrame frame = skelform::runtime::bound_frame(d, refined.data(), normals.data(), v);
+        const glm::vec3 p = skelform::dss::displaced_point(frame, d.binding_displacement[v], d.binding_residual[v]);
+        worst = std::max(worst, glm::length(p - d.rest_positions[v]));
+        CHECK(d.rest_frames[v][2] == frame.normal);  // columns: tangent, bitangent, normal
+        CHECK(d.handle_control_vertex[v] < d.control_vertex_count);
+        CHECK(std::abs(glm::length(d.rest_normals[v]) - 1.0f) < 1e-3f);
+      }
+      CHECK_MESSAGE(worst / diagonal <= 1e-5f, sample << " rest error " << worst / diagonal);
+      if (std::string(sample) == "Fox/Fox.glb") {
+        for (const skelform::runtime::PrimitiveRecord& record : d.primitives) CHECK(!record.has_normals);
+      }
+      // Dense skin for the baselines: weights sum to 1 per vertex, joints in the skin.
+      REQUIRE(d.influences >= 4);
+      for (uint32_t v = 0; v < d.vertex_count; ++v) {
+        float sum = 0;
+        for (uint32_t k = 0; k < d.influences; ++k) {
+          sum += d.dense_weights[v * d.influences + k];
+          CHECK(d.dense_joints[v * d.influences + k] < d.joint_count);
+        }
+        CHECK(std::abs(sum - 1.0f) < 1e-5f);
+      }
+    }
+  }
+}
+
+TEST_CASE("corrupt assets: each corruption gives its sf_result and a message, never a crash") {
+  SKELFORM_REQUIRE_DATA(path, "RiggedSimple/RiggedSimple.glb");
+  const Glb original(baked_sample(path).glb);
+  Glb probe = original;
+  const uint32_t control_vertices = probe.accessor("control", "positions")["count"].get<uint32_t>();
+  const uint32_t refined_vertices = probe.accessor("subdivision", "stencilOffsets")["count"].get<uint32_t>() - 1;
+  const uint32_t refined_triangles = probe.accessor("subdivision", "indices")["count"].get<uint32_t>() / 3;
+  const uint32_t joint_count = static_cast<uint32_t>(
+      probe.json["skins"][probe.deformable()["skin"].get<size_t>()]["joints"].size());
+
+  SUBCASE("missing extension") {
+    Glb glb = original;
+    glb.json["extensions"].erase("SKELFORM_skeletal_deformation");
+    check_corrupt(glb, SF_ERROR_INVALID_DATA, "not a skelform-baked asset (run skelform-bake)");
+  }
+  SUBCASE("newer major version") {
+    Glb glb = original;
+    glb.extension()["majorVersion"] = 2;
+    glb.extension()["minorVersion"] = 3;
+    check_corrupt(glb, SF_ERROR_VERSION_MISMATCH, "version 2.3; this runtime reads major version 1");
+  }
+  SUBCASE("a newer minor version is accepted") {
+    Glb glb = original;
+    glb.extension()["minorVersion"] = 7;
+    glb.extension()["futureMember"] = 1;
+    Load load;
+    load_memory(glb.bytes(), load);
+    CHECK_MESSAGE(load.result == SF_OK, load.message);
+  }
+  SUBCASE("missing majorVersion") {
+    Glb glb = original;
+    glb.extension().erase("majorVersion");
+    check_corrupt(glb, SF_ERROR_INVALID_DATA, "majorVersion");
+  }
+  SUBCASE("accessor count smaller than the layout requires") {
+    Glb glb = original;
+    glb.accessor("control", "skeletalPositions")["count"] = control_vertices - 1;
+    check_corrupt(glb, SF_ERROR_INVALID_DATA, "control.skeletalPositions: has");
+  }
+  SUBCASE("bufferView shorter than its accessor needs") {
+    Glb glb = original;
+    Json& view = glb.json["bufferViews"][glb.accessor("subdivision", "stencilWeights")["bufferView"].get<size_t>()];
+    view["byteLength"] = view["byteLength"].get<size_t>() - 4;
+    check_corrupt(glb, SF_ERROR_INVALID_DATA, "runs past the end of bufferView");
+  }
+  SUBCASE("accessor index out of range") {
+    Glb glb = original;
+    glb.deformable()["binding"]["residual"] = 100000;
+    check_corrupt(glb, SF_ERROR_INVALID_DATA, "binding.residual");
+  }
+  SUBCASE("wrong component type") {
+    Glb glb = original;
+    glb.accessor("subdivision", "stencilIndices")["componentType"] = 5126;
+    check_corrupt(glb, SF_ERROR_INVALID_DATA, "expected UNSIGNED_INT SCALAR");
+  }
+  SUBCASE("stencil index out of range") {
+    Glb glb = original;
+    glb.put_u32(glb.offset_of(glb.accessor("subdivision", "stencilIndices"), 5, 4), control_vertices);
+    check_corrupt(glb, SF_ERROR_INVALID_DATA, "subdivision.stencilIndices: index");
+  }
+  SUBCASE("stencil offsets decrease") {
+    Glb glb = original;
+    glb.put_u32(glb.offset_of(glb.accessor("subdivision", "stencilOffsets"), 1, 4), 0xFFFFFFF0u);
+    check_corrupt(glb, SF_ERROR_INVALID_DATA, "offsets decrease");
+  }
+  SUBCASE("refined index out of range") {
+    Glb glb = original;
+    glb.put_u32(glb.offset_of(glb.accessor("subdivision", "indices"), 7, 4), refined_vertices);
+    check_corrupt(glb, SF_ERROR_INVALID_DATA, "subdivision.indices: index");
+  }
+  SUBCASE("control index out of range") {
+    Glb glb = original;
+    glb.put_u32(glb.offset_of(glb.accessor("control", "indices"), 2, 4), control_vertices + 5);
+    check_corrupt(glb, SF_ERROR_INVALID_DATA, "control.indices: index");
+  }
+  SUBCASE("binding triangle out of range") {
+    Glb glb = original;
+    glb.put_u32(glb.offset_of(glb.accessor("binding", "triangle"), 3, 4), refined_triangles);
+    check_corrupt(glb, SF_ERROR_INVALID_DATA, "binding.triangle: index");
+  }
+  SUBCASE("control joint outside the skin") {
+    Glb glb = original;
+    Json& weights = glb.json["accessors"][glb.deformable()["control"]["weights"][0].get<size_t>()];
+    Json& joints = glb.json["accessors"][glb.deformable()["control"]["joints"][0].get<size_t>()];
+    size_t slot = 0;  // the first influencing slot: only those must name a joint of the skin
+    while (!(glb.f32(glb.offset_of(weights, slot, 4)) > 0)) ++slot;
+    glb.put_u16(glb.offset_of(joints, slot, 2), static_cast<uint16_t>(joint_count));
+    check_corrupt(glb, SF_ERROR_INVALID_DATA, "names joint " + std::to_string(joint_count));
+  }
+  SUBCASE("NaN in a float array") {
+    Glb glb = original;
+    glb.put_f32(glb.offset_of(glb.accessor("binding", "barycentric"), 9, 4), std::nanf(""));
+    check_corrupt(glb, SF_ERROR_INVALID_DATA, "non-finite");
+  }
+  SUBCASE("infinite stencil weight") {
+    Glb glb = original;
+    glb.put_f32(glb.offset_of(glb.accessor("subdivision", "stencilWeights"), 0, 4), INFINITY);
+    check_corrupt(glb, SF_ERROR_INVALID_DATA, "subdivision.stencilWeights");
+  }
+  SUBCASE("negative medial radius") {
+    Glb glb = original;
+    glb.put_f32(glb.offset_of(glb.accessor("control", "medialRadius"), 0, 4), -1.0f);
+    check_corrupt(glb, SF_ERROR_INVALID_DATA, "negative radius");
+  }
+  SUBCASE("subdivision level out of range") {
+    Glb glb = original;
+    glb.deformable()["subdivision"]["level"] = 9;
+    check_corrupt(glb, SF_ERROR_INVALID_DATA, "level");
+  }
+  SUBCASE("vertexCount differs from the primitives") {
+    Glb glb = original;
+    glb.deformable()["vertexCount"] = glb.deformable()["vertexCount"].get<int>() + 1;
+    check_corrupt(glb, SF_ERROR_INVALID_DATA, "binding.triangle: has");
+  }
+  SUBCASE("a primitive that does not exist") {
+    Glb glb = original;
+    glb.deformable()["primitives"][0] = 42;
+    check_corrupt(glb, SF_ERROR_INVALID_DATA, "primitives[0]");
+  }
+  SUBCASE("a mesh that does not exist") {
+    Glb glb = original;
+    glb.deformable()["mesh"] = 42;
+    check_corrupt(glb, SF_ERROR_INVALID_DATA, "'mesh'");
+  }
+  SUBCASE("deformables missing") {
+    Glb glb = original;
+    glb.extension().erase("deformables");
+    check_corrupt(glb, SF_ERROR_INVALID_DATA, "deformables");
+  }
+}
+
+TEST_CASE("a truncated .glb fails cleanly at every kind of cut") {
+  SKELFORM_REQUIRE_DATA(path, "RiggedSimple/RiggedSimple.glb");
+  const std::string glb = baked_sample(path).glb;
+  const size_t json_end = 20 + u32_at(glb, 12);
+  for (size_t length : {size_t{1}, size_t{4}, size_t{11}, size_t{12}, size_t{19}, size_t{20}, size_t{21}, json_end - 1,
+                        json_end, json_end + 4, json_end + 8, glb.size() / 2, glb.size() - 4, glb.size() - 1}) {
+    Load load;
+    load_memory(glb.substr(0, length), load);
+    CHECK_MESSAGE(load.result == SF_ERROR_INVALID_DATA, length << ": " << load.message);
+    CHECK(load.asset == nullptr);
+    CHECK_MESSAGE(!load.message.empty(), length);
+  }
+  // Cut and then patched so the container is consistent: the accessors no longer fit.
+  Glb cut(glb);
+  cut.bin.resize(cut.bin.size() / 2);
+  check_corrupt(cut, SF_ERROR_INVALID_DATA, "");
+}
+
+TEST_CASE("a caller's allocator holds every byte of the asset and balances; failures are out of memory") {
+  SKELFORM_REQUIRE_DATA(path, "RiggedSimple/RiggedSimple.glb");
+  const std::string glb = baked_sample(path).glb;
+  CountingHeap heap;
+  sf_allocator allocator{counting_alloc, counting_free, &heap};
+  {
+    Load load;
+    load_memory(glb, load, &allocator);
+    REQUIRE_MESSAGE(load.result == SF_OK, load.message);
+    CHECK(heap.allocations > 10);  // the asset object and its arrays
+    CHECK(heap.live > 0);
+  }
+  CHECK(heap.allocations == heap.frees);
+  CHECK(heap.live == 0);
+
+  // Fail the n-th allocation: every partial asset is released through the same callbacks.
+  const long total = heap.allocations;
+  for (long fail_at : {0L, 1L, 2L, total / 2, total - 1}) {
+    CountingHeap failing;
+    failing.fail_after = fail_at;
+    sf_allocator callbacks{counting_alloc, counting_free, &failing};
+    Load load;
+    load_memory(glb, load, &callbacks);
+    CHECK_MESSAGE(load.result == SF_ERROR_OUT_OF_MEMORY, fail_at << ": " << load.message);
+    CHECK(load.asset == nullptr);
+    CHECK(failing.live == 0);
+  }
+}
+
+}  // TEST_SUITE
