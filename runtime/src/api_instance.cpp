@@ -146,10 +146,13 @@ sf_result evaluate(sf_instance& instance, const sf_eval_options& options) {
                           instance.skeletal.data(), instance.normal_matrices.data());
     else
       drive_skeleton_handles(d, instance.handles, instance.skeletal.data());
-    // 2. S' → M. Carried normals need the skin's per-vertex transform; the handle driver has
-    // none and uses the paper's homotopy (skelform.h, SF_RECONSTRUCTION_CARRIED).
+    // 2. S' → M. Carried normals: the skin's per-vertex transform turns the rest normals; the
+    // handle driver has none and takes them from the surface its skeletal motion predicts.
     if (options.reconstruction == SF_RECONSTRUCTION_CARRIED && instance.driver == Driver::skin) {
       reconstruct_carried(d, instance.skeletal.data(), instance.normal_matrices.data(), instance.control.data());
+    } else if (options.reconstruction == SF_RECONSTRUCTION_CARRIED) {
+      reconstruct_predicted(d, instance.rest_normal_offset.data(), instance.skeletal.data(),
+                            instance.step_normals_a.data(), instance.step_normals_b.data(), instance.control.data());
     } else {
       const uint32_t steps = options.homotopy_steps == 0 ? 3u : options.homotopy_steps;
       const bool incremental = (options.flags & SF_EVAL_FROM_REST) == 0 && instance.has_previous;

@@ -70,6 +70,10 @@ void drive_skeleton_handles(const Deformable& d, HandleState& handles, glm::vec3
 void reconstruct_carried(const Deformable& d, const glm::vec3* skeletal, const glm::mat3* normal_matrices,
                          glm::vec3* control_out);
 // Per control vertex N_rest − N_area(M_rest): what the homotopy adds to its recomputed
+// reconstruct.cpp. Handle driver, carried mode: normals of the predicted surface
+// M_rest + (S' − S) (with the rest offsets), one step. `predicted` and `normals` are scratch.
+void reconstruct_predicted(const Deformable& d, const glm::vec3* rest_offset, const glm::vec3* skeletal,
+                           glm::vec3* predicted, glm::vec3* normals, glm::vec3* control_out);
 // normals so that they equal the bake's at rest (reconstruct.cpp says why). Once per instance.
 void rest_normal_offsets(const Deformable& d, glm::vec3* offsets);
 // The paper's homotopy (2)/(3) from (start_skeletal, start_control, start_normals) to S_L =

@@ -53,6 +53,22 @@ void reconstruct_carried(const Deformable& d, const glm::vec3* skeletal, const g
   }
 }
 
+void reconstruct_predicted(const Deformable& d, const glm::vec3* rest_offset, const glm::vec3* skeletal,
+                           glm::vec3* predicted, glm::vec3* normals, glm::vec3* control_out) {
+  // The handle driver has no per-vertex transform to carry normals by. The surface the
+  // skeletal motion predicts, M_rest + (S' − S), gives them in one shot: like eq. (3) with
+  // L = 1, but from a surface that moves exactly with the skeleton, so a normal changes only
+  // where its one-ring's skeleton moved (no ring-by-ring spread per homotopy step, no
+  // amplification), and where nothing moved M' is the rest pose exactly.
+  for (uint32_t v = 0; v < d.control_vertex_count; ++v)
+    predicted[v] = d.control_positions[v] + (skeletal[v] - d.skeletal_positions[v]);
+  paper_normals(d, predicted, rest_offset, d.control_normals.data(), normals);
+  for (uint32_t v = 0; v < d.control_vertex_count; ++v) {
+    const bool unmoved = skeletal[v] == d.skeletal_positions[v] && normals[v] == d.control_normals[v];
+    control_out[v] = unmoved ? d.control_positions[v] : skeletal[v] + d.medial_radius[v] * normals[v] + rest_residual(d, v);
+  }
+}
+
 void rest_normal_offsets(const Deformable& d, glm::vec3* offsets) {
   dss::refined_vertex_normals(d.control_positions.data(), d.control_vertex_count, d.control_indices.data(),
                               d.control_indices.size() / 3, offsets);

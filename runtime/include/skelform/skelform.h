@@ -234,7 +234,8 @@ typedef enum sf_skeleton_skinning {
  * unstable on dense control meshes). */
 typedef enum sf_reconstruction {
   /* Default. Skin driver: the rest normals turned by each skeletal vertex's blended joint
-   * rotation; handle driver: as SF_RECONSTRUCTION_PAPER. */
+   * rotation. Handle driver: the normals of the predicted surface M_rest + (S' − S), one step
+   * (where the skeleton does not move, the surface stays at rest exactly). */
   SF_RECONSTRUCTION_CARRIED = 0,
   /* The paper's homotopy (2)/(3): L steps, normals recomputed from the previous step. */
   SF_RECONSTRUCTION_PAPER = 1,
