@@ -5,7 +5,8 @@
 #                            project's own procedural character
 #   ./run.sh MODEL           the same main job on your own model (.glb/.gltf/.obj/.ply/.off)
 #   ./run.sh test            install missing packages, build, run the whole test suite,
-#                            then again under AddressSanitizer + UndefinedBehaviorSanitizer
+#                            then again under AddressSanitizer + UndefinedBehaviorSanitizer,
+#                            and the multi-threaded instance test under ThreadSanitizer
 #
 # Environment: JOBS (parallel build jobs, default: all cores), SKELFORM_DATA_DIR (the
 # third-party models the tests read; default ../shared/data, tests skip when absent).
@@ -45,12 +46,16 @@ install_validator() {
   fi
 }
 
-# build DIR [cmake args...]
+# build DIR [cmake args...] [--target T]
 build() {
   local dir=$1; shift
+  local configure=() target=()
+  while [ $# -gt 0 ]; do
+    if [ "$1" = "--target" ]; then target=(--target "$2"); shift 2; else configure+=("$1"); shift; fi
+  done
   echo "==> building in $dir"
-  cmake -S "$root" -B "$dir" "$@" >/dev/null
-  cmake --build "$dir" -j "$jobs"
+  cmake -S "$root" -B "$dir" "${configure[@]}" >/dev/null
+  cmake --build "$dir" -j "$jobs" "${target[@]}"
 }
 
 run_tests() {
@@ -59,10 +64,15 @@ run_tests() {
   echo "==> tests (Release)"
   ctest --test-dir "$root/build" --output-on-failure -j "$jobs"
   build "$root/build-asan" -DCMAKE_BUILD_TYPE=RelWithDebInfo -DSKELFORM_SANITIZE=address,undefined \
-        -DSKELFORM_BUILD_BENCH=OFF -DSKELFORM_BUILD_SAMPLES=OFF
+        -DSKELFORM_BUILD_BENCH=OFF
   echo "==> tests (AddressSanitizer + UndefinedBehaviorSanitizer)"
   ASAN_OPTIONS=detect_leaks=1:abort_on_error=1 UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1 \
     ctest --test-dir "$root/build-asan" --output-on-failure -j "$jobs"
+  # Instances evaluated on many threads at once must not race (DESIGN.md threading contract).
+  build "$root/build-tsan" -DCMAKE_BUILD_TYPE=RelWithDebInfo -DSKELFORM_SANITIZE=thread \
+        -DSKELFORM_BUILD_BENCH=OFF -DSKELFORM_BUILD_SAMPLES=OFF --target skelform_tests
+  echo "==> thread test (ThreadSanitizer)"
+  TSAN_OPTIONS=halt_on_error=1 ctest --test-dir "$root/build-tsan" --output-on-failure -R 'runtime/threads_test'
 }
 
 run_main_job() {
