@@ -95,6 +95,6 @@ run_main_job() {
 install_missing_packages
 case "${1:-}" in
   test) run_tests ;;
-  -h|--help) sed -n '2,11p' "$0" ;;
+  -h|--help) sed -n '2,12p' "$0" ;;
   *) run_main_job "${1:-}" ;;
 esac
