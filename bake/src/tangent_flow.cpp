@@ -144,7 +144,7 @@ void apply_tangent_flow(TriangleMesh& mesh, const TangentFlowOptions& options) {
         move_without_folding(mesh, incident, initial_normals, v, reference->closest(mesh.positions[v]).point);
   };
 
-  std::vector<Vec3> umbrella_vectors(vertex_count), bi_umbrella_vectors(vertex_count);
+  std::vector<Vec3> umbrella_vectors(vertex_count), bi_umbrella_vectors(vertex_count), targets(vertex_count);
   for (int step = 0; step < options.steps; ++step) {
     if (reference && step > 0 && step % interval == 0) project();
     // Normals follow the moving vertices; the tangent plane is the current one.
@@ -158,7 +158,7 @@ void apply_tangent_flow(TriangleMesh& mesh, const TangentFlowOptions& options) {
       const Vec3& n = normals[v];
       // Without a tangent plane (zero normal) the tangential part is undefined: stay put.
       if (step_size[v] == 0.0 || n == Vec3(0.0)) {
-        umbrella_vectors[v] = mesh.positions[v];
+        targets[v] = mesh.positions[v];
         continue;
       }
       const Vec3& bi = bi_umbrella_vectors[v];
@@ -168,10 +168,10 @@ void apply_tangent_flow(TriangleMesh& mesh, const TangentFlowOptions& options) {
       if (length > limit) displacement *= limit / length;
       const Vec3 moved = mesh.positions[v] + displacement;
       const bool finite = std::isfinite(moved.x) && std::isfinite(moved.y) && std::isfinite(moved.z);
-      umbrella_vectors[v] = finite ? moved : mesh.positions[v];  // reused as the target buffer
+      targets[v] = finite ? moved : mesh.positions[v];
     }
     for (uint32_t v = 0; v < vertex_count; ++v)
-      if (umbrella_vectors[v] != mesh.positions[v]) move_without_folding(mesh, incident, initial_normals, v, umbrella_vectors[v]);
+      if (targets[v] != mesh.positions[v]) move_without_folding(mesh, incident, initial_normals, v, targets[v]);
   }
   if (reference) project();
 }
