@@ -144,6 +144,7 @@ sf_result sf_asset_deformable_info(const sf_asset* asset, uint32_t deformable, s
   info.vertex_count = d.vertex_count;
   info.control_vertex_count = d.control_vertex_count;
   info.subdivision_level = d.subdivision_level;
+  info.control_triangle_count = static_cast<uint32_t>(d.control_indices.size() / 3);
   *out_info = info;
   return SF_OK;
 }
@@ -161,6 +162,15 @@ sf_result sf_asset_primitive_info(const sf_asset* asset, uint32_t deformable, ui
   info.has_normals = record.has_normals ? 1u : 0u;
   info.has_tangents = record.has_tangents ? 1u : 0u;
   *out_info = info;
+  return SF_OK;
+}
+
+sf_result sf_asset_control_triangles(const sf_asset* asset, uint32_t deformable, uint32_t* indices,
+                                     size_t index_capacity) {
+  if (!asset || !indices || deformable >= asset->deformables.size()) return SF_ERROR_INVALID_ARGUMENT;
+  const skelform::runtime::Deformable& d = asset->deformables[deformable];
+  if (index_capacity < d.control_indices.size()) return SF_ERROR_INVALID_ARGUMENT;
+  std::memcpy(indices, d.control_indices.data(), d.control_indices.size() * sizeof(uint32_t));
   return SF_OK;
 }
 

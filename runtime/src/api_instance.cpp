@@ -372,4 +372,30 @@ sf_result sf_instance_write(const sf_instance* instance, uint32_t primitive, con
   });
 }
 
+sf_result sf_instance_write_coarse(const sf_instance* instance, uint32_t mesh, float* positions, size_t stride_bytes,
+                                   size_t vertex_capacity) {
+  if (!instance) return SF_ERROR_INVALID_ARGUMENT;
+  return guarded(instance, "sf_instance_write_coarse", [&]() -> sf_result {
+    const Deformable& d = *instance->deformable;
+    if (mesh > SF_COARSE_SKELETAL)
+      return fail(instance, SF_ERROR_INVALID_ARGUMENT, "sf_instance_write_coarse: unknown mesh %u", mesh);
+    if (!positions) return fail(instance, SF_ERROR_INVALID_ARGUMENT, "sf_instance_write_coarse: positions is NULL");
+    const size_t stride = stride_bytes ? stride_bytes : 12;
+    if (stride < 12)
+      return fail(instance, SF_ERROR_INVALID_ARGUMENT, "sf_instance_write_coarse: stride %zu is smaller than 12",
+                  stride_bytes);
+    if (vertex_capacity < d.control_vertex_count)
+      return fail(instance, SF_ERROR_INVALID_ARGUMENT, "sf_instance_write_coarse: capacity %zu, the mesh has %u vertices",
+                  vertex_capacity, d.control_vertex_count);
+    if (!instance->has_previous)
+      return fail(instance, SF_ERROR_NOT_READY,
+                  "sf_instance_write_coarse: no SF_METHOD_SKELFORM evaluation yet (sf_instance_evaluate)");
+    // After an evaluation its S' and M live in previous_* (the incremental start).
+    const glm::vec3* source =
+        mesh == SF_COARSE_SKELETAL ? instance->previous_skeletal.data() : instance->previous_control.data();
+    write_stream(positions, stride, source, d.control_vertex_count);
+    return SF_OK;
+  });
+}
+
 }  // extern "C"

@@ -179,3 +179,40 @@ TEST_CASE("output: after SF_EVAL_SKIP_NORMALS positions are written and normal/t
   CHECK(untouched(nb));
   CHECK(untouched(t));
 }
+
+TEST_CASE("output: the coarse meshes are the control and skeletal meshes of the last skelform evaluation") {
+  const skelform::test::RuntimeModel& model = skelform::test::capsule_model();
+  sf_deformable_info info{};
+  REQUIRE(sf_asset_deformable_info(model.asset, 0, &info) == SF_OK);
+  REQUIRE(info.control_triangle_count > 0);
+  std::vector<uint32_t> triangles(size_t(info.control_triangle_count) * 3, 0xffffffffu);
+  CHECK(sf_asset_control_triangles(model.asset, 0, triangles.data(), triangles.size() - 1) ==
+        SF_ERROR_INVALID_ARGUMENT);
+  REQUIRE(sf_asset_control_triangles(model.asset, 0, triangles.data(), triangles.size()) == SF_OK);
+  for (uint32_t index : triangles) CHECK(index < info.control_vertex_count);
+
+  sf_instance* instance = nullptr;
+  REQUIRE(sf_instance_create(model.asset, 0, &instance) == SF_OK);
+  const size_t n = info.control_vertex_count, stride = 20;
+  Block control(exact_size(n, stride, 12)), skeletal(exact_size(n, stride, 12));
+  CHECK(sf_instance_write_coarse(instance, SF_COARSE_CONTROL, control.floats(), stride, n) == SF_ERROR_NOT_READY);
+  // At rest the control mesh is the surface and the skeletal mesh lies strictly inside it,
+  // at each vertex's medial radius: |M − S'| > 0 for every vertex of the closed capsule.
+  REQUIRE(sf_instance_evaluate(instance, nullptr) == SF_OK);
+  CHECK(sf_instance_write_coarse(instance, SF_COARSE_CONTROL, control.floats(), stride, n - 1) ==
+        SF_ERROR_INVALID_ARGUMENT);
+  CHECK(sf_instance_write_coarse(instance, 7, control.floats(), stride, n) == SF_ERROR_INVALID_ARGUMENT);
+  CHECK(untouched(control));
+  REQUIRE(sf_instance_write_coarse(instance, SF_COARSE_CONTROL, control.floats(), stride, n) == SF_OK);
+  REQUIRE(sf_instance_write_coarse(instance, SF_COARSE_SKELETAL, skeletal.floats(), stride, n) == SF_OK);
+  size_t inside = 0;
+  for (size_t i = 0; i < n; ++i) {
+    glm::vec3 m, s;
+    std::memcpy(&m, control.bytes.get() + i * stride, 12);
+    std::memcpy(&s, skeletal.bytes.get() + i * stride, 12);
+    if (glm::length(m - s) > 1e-4 * model.diagonal) ++inside;
+    if (i + 1 < n) CHECK(control.bytes[i * stride + 12] == kSentinel);
+  }
+  CHECK(inside == n);
+  sf_instance_destroy(instance);
+}

@@ -154,6 +154,7 @@ typedef struct sf_deformable_info {
   uint32_t vertex_count;         /* original vertices, all primitives */
   uint32_t control_vertex_count; /* vertices of the control (and skeletal) mesh */
   uint32_t subdivision_level;    /* Loop level of the refined surface */
+  uint32_t control_triangle_count; /* triangles of the control (and skeletal) mesh */
 } sf_deformable_info;
 
 SF_API sf_result sf_asset_deformable_info(const sf_asset* asset, uint32_t deformable, sf_deformable_info* out_info);
@@ -170,6 +171,12 @@ typedef struct sf_primitive_info {
 
 SF_API sf_result sf_asset_primitive_info(const sf_asset* asset, uint32_t deformable, uint32_t primitive,
                                          sf_primitive_info* out_info);
+
+/* Inspection (viewers, debugging): the triangles of the control mesh M, which the skeletal
+ * mesh S shares, as 3 × control_triangle_count indices into the control vertices.
+ * index_capacity must be at least that many. */
+SF_API sf_result sf_asset_control_triangles(const sf_asset* asset, uint32_t deformable, uint32_t* indices,
+                                            size_t index_capacity);
 
 /* ---------------------------------------------------------------------------------------- */
 /* Instances                                                                                 */
@@ -285,6 +292,18 @@ typedef struct sf_vertex_output {
  * only for primitives with authored tangents (else SF_ERROR_UNSUPPORTED if requested). Never
  * allocates; touches no byte outside the described elements. */
 SF_API sf_result sf_instance_write(const sf_instance* instance, uint32_t primitive, const sf_vertex_output* output);
+
+/* Inspection (viewers, debugging): the coarse meshes of the last SF_METHOD_SKELFORM
+ * evaluation, control_vertex_count positions `stride_bytes` apart (0 = 12). */
+typedef enum sf_coarse_mesh {
+  SF_COARSE_CONTROL = 0,  /* M after reconstruction and fairing: what the refinement starts from */
+  SF_COARSE_SKELETAL = 1, /* S': the deformed skeletal (medial) mesh */
+  SF_COARSE_MESH_FORCE_U32 = 0x7fffffff
+} sf_coarse_mesh;
+
+/* SF_ERROR_NOT_READY until an SF_METHOD_SKELFORM evaluation has run. Never allocates. */
+SF_API sf_result sf_instance_write_coarse(const sf_instance* instance, uint32_t mesh, float* positions,
+                                          size_t stride_bytes, size_t vertex_capacity);
 
 #ifdef __cplusplus
 } /* extern "C" */
