@@ -23,7 +23,12 @@ sf_instance::sf_instance(const sf_asset& owner, const Deformable& d)
       previous_control(CallbackAllocator<glm::vec3>(owner.allocator)),
       step_normals_a(CallbackAllocator<glm::vec3>(owner.allocator)),
       step_normals_b(CallbackAllocator<glm::vec3>(owner.allocator)),
-      rest_normal_offset(CallbackAllocator<glm::vec3>(owner.allocator)),
+      rest_normal_offset(CallbackAllocator<glm::vec3>(owner.allocator)), fairing(owner.allocator),
+      fairing_frames(CallbackAllocator<glm::mat3>(owner.allocator)),
+      fairing_offset(CallbackAllocator<glm::vec3>(owner.allocator)),
+      fairing_start(CallbackAllocator<glm::vec3>(owner.allocator)),
+      fairing_shape(CallbackAllocator<glm::vec3>(owner.allocator)),
+      fairing_fixed(CallbackAllocator<uint8_t>(owner.allocator)),
       refined_positions(CallbackAllocator<glm::vec3>(owner.allocator)),
       refined_normals(CallbackAllocator<glm::vec3>(owner.allocator)),
       dense_positions(CallbackAllocator<glm::vec3>(owner.allocator)),
@@ -45,6 +50,12 @@ sf_instance::sf_instance(const sf_asset& owner, const Deformable& d)
   step_normals_b.resize(control_count);
   rest_normal_offset.resize(control_count);
   rest_normal_offsets(d, rest_normal_offset.data());
+  fairing = make_fairing_workspace(d.fairing_topology, kMaxIntersectionGrid, owner.allocator);
+  fairing_frames.resize(control_count);
+  fairing_offset.assign(control_count, glm::vec3(0.0f));
+  fairing_start.resize(control_count);
+  fairing_shape.assign(control_count, glm::vec3(0.0f));
+  fairing_fixed.assign(control_count, 0);
   refined_positions.resize(d.refined_vertex_count);
   refined_normals.resize(d.refined_vertex_count);
   dense_positions.resize(d.vertex_count);
@@ -119,11 +130,20 @@ sf_result evaluate(sf_instance& instance, const sf_eval_options& options) {
   if (options.flags & ~known_flags)
     return fail(&instance, SF_ERROR_INVALID_ARGUMENT, "sf_instance_evaluate: unknown flags 0x%x",
                 options.flags & ~known_flags);
-  if (options.fairing_flags != 0 || options.fairing_iterations != 0 || options.fairing_step != 0.0f ||
-      options.intersection_step != 0.0f || options.intersection_grid != 0)
-    return fail(&instance, SF_ERROR_UNSUPPORTED,
-                "sf_instance_evaluate: fairing (paper eqs. (4), (5)) is not implemented in this runtime; the "
-                "fairing_* and intersection_* options must be zero");
+  const uint32_t known_fairing_flags = SF_FAIR_OFF | SF_FAIR_EXPLICIT;
+  if (options.fairing_flags & ~known_fairing_flags)
+    return fail(&instance, SF_ERROR_INVALID_ARGUMENT, "sf_instance_evaluate: unknown fairing_flags 0x%x",
+                options.fairing_flags & ~known_fairing_flags);
+  if (!(options.fairing_step >= 0.0f && options.fairing_step <= 10.0f) ||
+      !(options.intersection_step >= 0.0f && options.intersection_step <= 10.0f))
+    return fail(&instance, SF_ERROR_INVALID_ARGUMENT,
+                "sf_instance_evaluate: fairing_step and intersection_step must be in [0, 10] (0 = default)");
+  if (options.intersection_grid > kMaxIntersectionGrid)
+    return fail(&instance, SF_ERROR_INVALID_ARGUMENT, "sf_instance_evaluate: intersection_grid %u exceeds %u",
+                options.intersection_grid, kMaxIntersectionGrid);
+  if (options.fairing_iterations > kMaxFairingIterations)
+    return fail(&instance, SF_ERROR_INVALID_ARGUMENT, "sf_instance_evaluate: fairing_iterations %u exceeds %u",
+                options.fairing_iterations, kMaxFairingIterations);
   if (instance.driver == Driver::handles && !instance.handles.system)
     return fail(&instance, SF_ERROR_NOT_READY, "sf_instance_evaluate: the handle driver has no handle set");
 
@@ -158,7 +178,12 @@ sf_result evaluate(sf_instance& instance, const sf_eval_options& options) {
       const bool incremental = (options.flags & SF_EVAL_FROM_REST) == 0 && instance.has_previous;
       const glm::vec3* offset = instance.rest_normal_offset.data();
       if (incremental)
-        reconstruct_homotopy(d, offset, instance.previous_skeletal.data(), instance.previous_control.data(), nullptr,
+        // The homotopy continues from the previous reconstruction, before its fairing (the
+        // flows post-process a reconstruction; they are not its state).
+        reconstruct_homotopy(d, offset, instance.previous_skeletal.data(),
+                             instance.has_fairing_offset ? instance.fairing_start.data()
+                                                         : instance.previous_control.data(),
+                             nullptr,
                              instance.skeletal.data(), steps, instance.step_normals_a.data(),
                              instance.step_normals_b.data(), instance.control.data());
       else
@@ -166,8 +191,17 @@ sf_result evaluate(sf_instance& instance, const sf_eval_options& options) {
                              d.control_normals.data(), instance.skeletal.data(), steps,
                              instance.step_normals_a.data(), instance.step_normals_b.data(), instance.control.data());
     }
-    // 3. Fairing (flows (4), (5)): the hook of the next issue.
-    fair(d, instance.skeletal.data(), instance.control.data());
+    // 3. Fairing (flows (4), (5)), warm-started from the previous evaluation.
+    FairStageOptions fairing;
+    fairing.params.fold_flow = (options.fairing_flags & SF_FAIR_NO_FOLD_FLOW) == 0;
+    fairing.params.intersection_flow = (options.fairing_flags & SF_FAIR_NO_INTERSECTION_FLOW) == 0;
+    fairing.params.semi_implicit = (options.fairing_flags & SF_FAIR_EXPLICIT) == 0;
+    fairing.params.iterations = options.fairing_iterations;
+    fairing.params.fold_step = options.fairing_step;
+    fairing.params.intersection_step = options.intersection_step;
+    fairing.params.grid_size = options.intersection_grid;
+    fairing.from_rest = (options.flags & SF_EVAL_FROM_REST) != 0 || !instance.has_previous;
+    fair_stage(instance, fairing);
     // 4. Refine and displace.
     displace(d, instance.control.data(), instance.refined_positions.data(), instance.refined_normals.data(),
              with_normals, out);
@@ -396,6 +430,13 @@ sf_result sf_instance_write_coarse(const sf_instance* instance, uint32_t mesh, f
     write_stream(positions, stride, source, d.control_vertex_count);
     return SF_OK;
   });
+}
+
+sf_result sf_instance_fairing_stats(const sf_instance* instance, uint32_t* iterations, float* residual) {
+  if (!instance) return SF_ERROR_INVALID_ARGUMENT;
+  if (iterations) *iterations = instance->last_fairing_iterations;
+  if (residual) *residual = instance->last_fairing_residual;
+  return SF_OK;
 }
 
 }  // extern "C"

@@ -3,6 +3,7 @@
 // by the conventions below, so the hot loops read them without indirection.
 #pragma once
 
+#include "fair.h"
 #include "memory.h"
 #include "skelform/skelform.h"
 
@@ -40,7 +41,8 @@ struct Deformable {
         stencil_weights(CallbackAllocator<float>(a)), refined_indices(CallbackAllocator<uint32_t>(a)),
         binding_triangle(CallbackAllocator<uint32_t>(a)), binding_barycentric(CallbackAllocator<glm::vec2>(a)),
         binding_displacement(CallbackAllocator<float>(a)), binding_residual(CallbackAllocator<glm::vec2>(a)),
-        rest_frames(CallbackAllocator<glm::mat3>(a)), handle_control_vertex(CallbackAllocator<uint32_t>(a)) {}
+        rest_frames(CallbackAllocator<glm::mat3>(a)), handle_control_vertex(CallbackAllocator<uint32_t>(a)),
+        fairing_topology(a), fairing_rest(a) {}
 
   int32_t mesh = -1;
   int32_t node = -1;
@@ -93,6 +95,13 @@ struct Deformable {
   // largest barycentric of its refined triangle, then that refined vertex's heaviest stencil
   // entry.
   Array<uint32_t> handle_control_vertex;
+
+  // Fairing (fair.h), derived at load time: the control mesh's connectivity and the flows'
+  // rest values. `fairing_supported` is false for a zero-radius (flat) skeleton, where the
+  // medial balls are points and the flows have nothing to pull towards.
+  FairingTopology fairing_topology;
+  FairingRest fairing_rest;
+  bool fairing_supported = false;
 };
 
 }  // namespace skelform::runtime

@@ -577,6 +577,21 @@ void derive_rest_data(Deformable& deformable) {
   }
 }
 
+// The fairing's connectivity and rest values (fair.h), once per deformable.
+void derive_fairing_data(Deformable& deformable, const AllocatorRef& allocator) {
+  float largest_radius = 0.0f;
+  for (float r : deformable.medial_radius) largest_radius = std::max(largest_radius, r);
+  deformable.fairing_topology =
+      build_fairing_topology(deformable.control_indices.data(), deformable.control_indices.size() / 3,
+                             deformable.control_vertex_count, allocator);
+  deformable.fairing_supported = largest_radius > 0.0f;
+  if (!deformable.fairing_supported) return;
+  FairingWorkspace scratch = make_fairing_workspace(deformable.fairing_topology, 0, allocator);
+  deformable.fairing_rest =
+      make_fairing_rest(deformable.fairing_topology, deformable.skeletal_positions.data(),
+                        deformable.medial_radius.data(), deformable.control_positions.data(), 0, scratch, allocator);
+}
+
 struct AssetDeleter {
   AllocatorRef allocator;
   void operator()(sf_asset* asset) const { destroy_object(allocator, asset); }
@@ -617,6 +632,7 @@ sf_asset* load_asset(const unsigned char* bytes, size_t size, const std::string&
     Deformable& deformable = asset->deformables.back();
     load_deformable(model, deformables->Get(static_cast<int>(d)), prefix + " deformable " + std::to_string(d), deformable);
     derive_rest_data(deformable);
+    derive_fairing_data(deformable, allocator);
   }
   return asset.release();
 }

@@ -39,6 +39,21 @@ constexpr float kMaxStepPerEdge = 0.5f;
 
 bool finite(const glm::vec3& v) { return std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z); }
 
+// The rest values the flows are measured from (FairingRest), in this evaluation's frames;
+// all null for the paper's absolute flows.
+struct Targets {
+  const glm::vec3* umbrella = nullptr;
+  const glm::vec3* bi_umbrella = nullptr;
+  const float* triangle_level = nullptr;
+  const float* field = nullptr;
+  const float* gap = nullptr;
+};
+
+// Never moved: open-border and isolated vertices, and the caller's FairingParams::fixed.
+bool is_fixed(const FairingTopology& topo, const FairingWorkspace& ws, uint32_t v) {
+  return topo.fixed[v] || (ws.caller_fixed && ws.caller_fixed[v]);
+}
+
 // U(p) = mean of the one-ring − p; 0 for a vertex without neighbours.
 glm::vec3 umbrella_at(const FairingTopology& topo, const glm::vec3* x, uint32_t v) {
   const uint32_t begin = topo.neighbour_offsets[v], end = topo.neighbour_offsets[v + 1];
@@ -58,9 +73,14 @@ glm::vec3 bi_umbrella_at(const FairingTopology& topo, const glm::vec3* x, uint32
   return sum / static_cast<float>(end - begin) - umbrella_at(topo, x, v);
 }
 
-void compute_umbrellas(const FairingTopology& topo, const glm::vec3* x, FairingWorkspace& ws) {
+void compute_umbrellas(const FairingTopology& topo, const glm::vec3* x, const Targets& targets, FairingWorkspace& ws) {
   for (uint32_t v = 0; v < topo.vertex_count; ++v) ws.umbrella[v] = umbrella_at(topo, x, v);
   for (uint32_t v = 0; v < topo.vertex_count; ++v) ws.bi_umbrella[v] = umbrella_at(topo, ws.umbrella.data(), v);
+  if (!targets.umbrella) return;
+  for (uint32_t v = 0; v < topo.vertex_count; ++v) {
+    ws.umbrella[v] -= targets.umbrella[v];
+    ws.bi_umbrella[v] -= targets.bi_umbrella[v];
+  }
 }
 
 float mean_edge_length(const FairingTopology& topo, const glm::vec3* x, uint32_t v) {
@@ -78,7 +98,7 @@ float apply_displacements(const FairingTopology& topo, glm::vec3* x, FairingWork
   float largest = 0.0f;
   for (uint32_t v = 0; v < topo.vertex_count; ++v) {
     glm::vec3& step = ws.displacement[v];
-    if (topo.fixed[v] || !finite(step)) {
+    if (is_fixed(topo, ws, v) || !finite(step)) {
       step = glm::vec3(0.0f);
       continue;
     }
@@ -94,22 +114,25 @@ float apply_displacements(const FairingTopology& topo, glm::vec3* x, FairingWork
 // Semi-implicit step: solves x' + τ B_v U²(x') = rhs (rhs in ws.start_positions) in place,
 // then turns x' − x into ws.displacement and applies it like an explicit step.
 float implicit_update(const FairingTopology& topo, glm::vec3* x, float step, float tangential_weight,
-                      FairingWorkspace& ws);
+                      const Targets& targets, FairingWorkspace& ws);
 
-// (I + c B)⁻¹ z for B = a I + b (I − n nᵀ), |n| = 1 or n = 0 (then B = (a + b) I).
+// (I + c B)⁻¹ z for B = a I + b (I − n nᵀ), |n| ≤ 1 (Sherman-Morrison on k I − c b n nᵀ,
+// k = 1 + c (a + b); k − c b |n|² ≥ 1 + c a > 0).
 glm::vec3 solve_block(const glm::vec3& z, const glm::vec3& n, float c, float a, float b) {
-  const glm::vec3 along = glm::dot(z, n) * n;
-  return along / (1.0f + c * a) + (z - along) / (1.0f + c * (a + b));
+  const float k = 1.0f + c * (a + b);
+  const float cb = c * b;
+  return (z + (cb * glm::dot(n, z) / (k - cb * glm::dot(n, n))) * n) / k;
 }
 
 // Gauss-Seidel sweeps for x' + τ B_v U²(x') = rhs (rhs in ws.start_positions), in place.
 void gauss_seidel(const FairingTopology& topo, glm::vec3* x, float step, float tangential_weight,
-                  FairingWorkspace& ws) {
+                  const Targets& targets, FairingWorkspace& ws) {
   for (int sweep = 0; sweep < kGaussSeidelSweeps; ++sweep) {
     for (uint32_t v = 0; v < topo.vertex_count; ++v) {
-      if (topo.fixed[v]) continue;
+      if (is_fixed(topo, ws, v)) continue;
       const float nu = topo.bi_umbrella_diagonal[v];
-      const glm::vec3 off_diagonal = bi_umbrella_at(topo, x, v) - nu * x[v];  // U²x − ν x_v
+      glm::vec3 off_diagonal = bi_umbrella_at(topo, x, v) - nu * x[v];  // U²x − ν x_v
+      if (targets.bi_umbrella) off_diagonal -= targets.bi_umbrella[v];      // relative to rest
       const float a = ws.smoothing_weight[v];
       const glm::vec3& n = ws.force_direction[v];
       // B_v applied to the off-diagonal part: a·r + b·(r − (r·n)n).
@@ -125,9 +148,9 @@ void gauss_seidel(const FairingTopology& topo, glm::vec3* x, float step, float t
 
 // One step of flow (4); returns the largest vertex motion.
 float fold_step(const FairingTopology& topo, const glm::vec3* skeletal, const float* radius, glm::vec3* x,
-                float step, bool semi_implicit, FairingWorkspace& ws) {
+                float step, bool semi_implicit, const Targets& targets, FairingWorkspace& ws) {
   const uint32_t vertex_count = topo.vertex_count;
-  compute_umbrellas(topo, x, ws);
+  compute_umbrellas(topo, x, targets, ws);
 
   // E_T(C_j)·∇E_T(C_j) per mesh triangle j against its deformed skeletal triangle T_j.
   for (uint32_t t = 0; t < topo.triangle_count; ++t) {
@@ -138,7 +161,7 @@ float fold_step(const FairingTopology& topo, const glm::vec3* skeletal, const fl
     glm::vec3 force(0.0f);
     if (finite(centroid) && finite(centres[0]) && finite(centres[1]) && finite(centres[2])) {
       const HullDistance e = ball_hull_distance(centroid, centres, radii);
-      force = e.value * e.gradient;
+      force = (targets.triangle_level ? e.value - targets.triangle_level[t] : e.value) * e.gradient;
     }
     ws.triangle_force[t] = finite(force) ? force : glm::vec3(0.0f);
   }
@@ -147,21 +170,29 @@ float fold_step(const FairingTopology& topo, const glm::vec3* skeletal, const fl
     ws.displacement[v] = glm::vec3(0.0f);
     ws.smoothing_weight[v] = 0.0f;
     ws.force_direction[v] = glm::vec3(0.0f);
-    if (topo.fixed[v]) continue;
+    if (is_fixed(topo, ws, v)) continue;
     // α: 0.25 unless 30 % or more of the neighbours' umbrella vectors are obtuse to U(p).
     const uint32_t begin = topo.neighbour_offsets[v], end = topo.neighbour_offsets[v + 1];
     uint32_t obtuse = 0;
     for (uint32_t k = begin; k < end; ++k)
       if (glm::dot(ws.umbrella[topo.neighbours[k]], ws.umbrella[v]) < 0.0f) ++obtuse;
-    const float alpha = static_cast<float>(obtuse) < kObtuseFraction * static_cast<float>(end - begin) ? kAlphaSmooth : 0.0f;
+    // An umbrella below a thousandth of the edge length (relative to rest: the pose has not
+    // changed the surface here) has no meaningful direction: no fold, α as for a smooth spot.
+    const bool negligible = glm::length(ws.umbrella[v]) < 1e-3f * mean_edge_length(topo, x, v);
+    const float alpha =
+        negligible || static_cast<float>(obtuse) < kObtuseFraction * static_cast<float>(end - begin) ? kAlphaSmooth : 0.0f;
 
     // F = (1/n) Σ_j E_{T_j}(C_j) ∇E_{T_j}(C_j) over the incident triangles.
     const uint32_t tri_begin = topo.incident_offsets[v], tri_end = topo.incident_offsets[v + 1];
     glm::vec3 force(0.0f);
     for (uint32_t k = tri_begin; k < tri_end; ++k) force += ws.triangle_force[topo.incident_triangles[k]];
     if (tri_end > tri_begin) force /= static_cast<float>(tri_end - tri_begin);
+    // F̂, softened: where |F| is below a thousandth of the vertex's edge length its direction is
+    // rounding noise, and a V that turned with it would make a held pose jitter; the
+    // projection fades out there instead (|direction| < 1).
     const float force_length = glm::length(force);
-    const glm::vec3 direction = force_length > 0.0f ? force / force_length : glm::vec3(0.0f);
+    const float soft = 1e-3f * mean_edge_length(topo, x, v);
+    const glm::vec3 direction = force_length > 0.0f ? force / std::max(force_length, soft) : glm::vec3(0.0f);
 
     // V = Δ²M − (Δ²M·F̂)F̂ (V = Δ²M where F = 0).
     const glm::vec3& bi = ws.bi_umbrella[v];
@@ -174,7 +205,7 @@ float fold_step(const FairingTopology& topo, const glm::vec3* skeletal, const fl
 
   if (!semi_implicit) return apply_displacements(topo, x, ws);  // Jacobi: all from one state
   for (uint32_t v = 0; v < vertex_count; ++v) ws.start_positions[v] = x[v] + ws.displacement[v];  // x − τF
-  return implicit_update(topo, x, step, 1.0f, ws);
+  return implicit_update(topo, x, step, 1.0f, targets, ws);
 }
 
 // ---- flow (5) ----------------------------------------------------------------------------
@@ -276,7 +307,10 @@ FieldValue field_at(const Grid& grid, const glm::vec3& x, const glm::vec3* skele
   const int cz = cell_coordinate(x.z, grid.origin.z, grid.inverse_cell.z, n);
   FieldValue best;
   cell_minimum(x, skeletal, radius, ws, (size_t(cz) * n + cy) * n + cx, best);
-  if (best.f < 0.0f) return best;  // h_{l,m,n} < 0
+  // The paper stops here when h of the own cell is negative. That makes f jump where the
+  // own cell's minimum crosses 0 (a float rounding away at rest), so the neighbourhood's
+  // minimum is always taken: the same f wherever the own cell's value is negative and
+  // another cell's is lower, continuous otherwise.
   // Shells of Chebyshev radius r around the own cell, nearest first: a shell whose every point
   // is at least (r − 1) cells away cannot beat `best` once (r − 1)²·cell² − (max d)² ≥ best,
   // which ends the search early without changing the minimum over the neighbourhood.
@@ -309,9 +343,9 @@ FieldValue field_at(const Grid& grid, const glm::vec3& x, const glm::vec3* skele
 
 // One step of flow (5); returns the largest vertex motion.
 float intersection_step(const FairingTopology& topo, const Grid& grid, const glm::vec3* skeletal, const float* radius,
-                        glm::vec3* x, float step, bool semi_implicit, FairingWorkspace& ws) {
+                        glm::vec3* x, float step, bool semi_implicit, const Targets& targets, FairingWorkspace& ws) {
   const uint32_t vertex_count = topo.vertex_count;
-  compute_umbrellas(topo, x, ws);
+  compute_umbrellas(topo, x, targets, ws);
 
   // f, its Gauss-Newton step G = f∇f / max(|∇f|², 4 d*²) with ∇f = 2(x − S*), and |f − g|.
   float largest_gap = 0.0f;
@@ -319,17 +353,19 @@ float intersection_step(const FairingTopology& topo, const Grid& grid, const glm
     ws.displacement[v] = glm::vec3(0.0f);
     ws.smoothing_weight[v] = 0.0f;
     ws.force_direction[v] = glm::vec3(0.0f);
-    if (topo.fixed[v] || !finite(x[v])) continue;
+    if (is_fixed(topo, ws, v) || !finite(x[v])) continue;
     const FieldValue field = field_at(grid, x[v], skeletal, radius, ws);
     if (field.minimiser == std::numeric_limits<uint32_t>::max()) continue;
     const glm::vec3 gradient = 2.0f * (x[v] - skeletal[field.minimiser]);  // ∇f
     const float d_star = radius[field.minimiser];
     const float denominator = std::max(glm::dot(gradient, gradient), 4.0f * d_star * d_star);
-    if (denominator > 0.0f) ws.displacement[v] = -step * (field.f / denominator) * gradient;  // −f∇f, normalised
+    const float f = targets.field ? field.f - targets.field[v] : field.f;
+    if (denominator > 0.0f) ws.displacement[v] = -step * (f / denominator) * gradient;  // −f∇f, normalised
     // W's numerator |f(M) − g(M, S)|: 0 where the vertex's own ball is the minimiser.
     if (field.minimiser != v && finite(skeletal[v])) {
       const glm::vec3 d = x[v] - skeletal[v];
-      const float gap = std::fabs(field.f - (glm::dot(d, d) - radius[v] * radius[v]));
+      float gap = std::fabs(field.f - (glm::dot(d, d) - radius[v] * radius[v]));
+      if (targets.gap) gap = std::max(0.0f, gap - targets.gap[v]);
       ws.smoothing_weight[v] = std::isfinite(gap) ? gap : 0.0f;
       largest_gap = std::max(largest_gap, ws.smoothing_weight[v]);
     }
@@ -345,14 +381,14 @@ float intersection_step(const FairingTopology& topo, const Grid& grid, const glm
     return apply_displacements(topo, x, ws);
   }
   for (uint32_t v = 0; v < vertex_count; ++v) ws.start_positions[v] = x[v] + ws.displacement[v];  // x − τG
-  return implicit_update(topo, x, step, 0.0f, ws);
+  return implicit_update(topo, x, step, 0.0f, targets, ws);
 }
 
 float implicit_update(const FairingTopology& topo, glm::vec3* x, float step, float tangential_weight,
-                      FairingWorkspace& ws) {
+                      const Targets& targets, FairingWorkspace& ws) {
   // ws.umbrella is free now: keep x before the solve there.
   for (uint32_t v = 0; v < topo.vertex_count; ++v) ws.umbrella[v] = x[v];
-  gauss_seidel(topo, x, step, tangential_weight, ws);
+  gauss_seidel(topo, x, step, tangential_weight, targets, ws);
   for (uint32_t v = 0; v < topo.vertex_count; ++v) {
     ws.displacement[v] = x[v] - ws.umbrella[v];
     x[v] = ws.umbrella[v];
@@ -540,12 +576,15 @@ FairingWorkspace make_fairing_workspace(const FairingTopology& topology, uint32_
   ws.cell_vertices.assign(n, 0);
   ws.cell_max_radius.assign(cells, 0.0f);
   ws.vertex_cell.assign(n, 0);
+  ws.target_umbrella.assign(n, glm::vec3(0.0f));
+  ws.target_bi_umbrella.assign(n, glm::vec3(0.0f));
+  ws.iteration_start.assign(n, glm::vec3(0.0f));
   return ws;
 }
 
 float fair_run(const FairingTopology& topology, const glm::vec3* skeletal, const float* radius,
                glm::vec3* positions, size_t vertex_count, const FairingParams& params,
-               FairingWorkspace& workspace) {
+               FairingWorkspace& workspace, const FairingRest* rest, const glm::mat3* frames) {
   const uint32_t grid_size = params.grid_size == 0 ? kDefaultGridSize : params.grid_size;
   if (vertex_count != topology.vertex_count || workspace.vertex_count != topology.vertex_count ||
       workspace.triangle_count != topology.triangle_count || grid_size > workspace.grid_size)
@@ -560,21 +599,117 @@ float fair_run(const FairingTopology& topology, const glm::vec3* skeletal, const
     if (finite(positions[v])) lo = glm::min(lo, positions[v]), hi = glm::max(hi, positions[v]);
   const float diagonal = lo.x <= hi.x ? glm::length(hi - lo) : 0.0f;
 
+  workspace.caller_fixed = params.fixed;
+  Targets targets;
+  if (rest && frames) {
+    if (rest->umbrella.size() != vertex_count || rest->triangle_level.size() != topology.triangle_count) return -1.0f;
+    for (size_t v = 0; v < vertex_count; ++v) {
+      workspace.target_umbrella[v] = frames[v] * rest->umbrella[v];
+      workspace.target_bi_umbrella[v] = frames[v] * rest->bi_umbrella[v];
+    }
+    targets = {workspace.target_umbrella.data(), workspace.target_bi_umbrella.data(), rest->triangle_level.data(),
+               rest->field.data(), rest->gap.data()};
+  }
+
   Grid grid;
   if (params.intersection_flow)
     grid = build_grid(topology, skeletal, radius, positions, static_cast<int>(grid_size), workspace);
 
   float residual = 0.0f;
   for (uint32_t iteration = 0; iteration < iterations; ++iteration) {
-    float moved = 0.0f;
+    std::copy(positions, positions + vertex_count, workspace.iteration_start.begin());
     if (params.fold_flow)
-      moved = std::max(moved, fold_step(topology, skeletal, radius, positions, fold, params.semi_implicit, workspace));
+      fold_step(topology, skeletal, radius, positions, fold, params.semi_implicit, targets, workspace);
     if (params.intersection_flow)
-      moved = std::max(moved, intersection_step(topology, grid, skeletal, radius, positions, intersect,
-                                                params.semi_implicit, workspace));
+      intersection_step(topology, grid, skeletal, radius, positions, intersect, params.semi_implicit, targets,
+                        workspace);
+    float moved = 0.0f;
+    for (size_t v = 0; v < vertex_count; ++v) {
+      const float d = glm::length(positions[v] - workspace.iteration_start[v]);
+      if (std::isfinite(d)) moved = std::max(moved, d);
+    }
     residual = diagonal > 0.0f ? moved / diagonal : 0.0f;
   }
   return residual;
+}
+
+}  // namespace skelform::runtime
+
+namespace skelform::runtime {
+
+void fairing_frames(const FairingTopology& topology, const glm::vec3* skeletal, const glm::vec3* positions,
+                    glm::mat3* frames) {
+  for (uint32_t v = 0; v < topology.vertex_count; ++v) {
+    glm::vec3 normal = positions[v] - skeletal[v];
+    float length = glm::length(normal);
+    if (!(length > 0.0f) || !std::isfinite(length)) {
+      // Zero radius: the area-weighted normal of the incident triangles.
+      normal = glm::vec3(0.0f);
+      for (uint32_t k = topology.incident_offsets[v]; k < topology.incident_offsets[v + 1]; ++k) {
+        const uint32_t* c = topology.triangle_indices.data() + 3 * size_t{topology.incident_triangles[k]};
+        normal += glm::cross(positions[c[1]] - positions[c[0]], positions[c[2]] - positions[c[0]]);
+      }
+      length = glm::length(normal);
+    }
+    normal = length > 0.0f && std::isfinite(length) ? normal / length : glm::vec3(0.0f, 0.0f, 1.0f);
+    // Tangent: the first one-ring edge not parallel to the normal, else a coordinate axis.
+    glm::vec3 tangent(0.0f);
+    for (uint32_t k = topology.neighbour_offsets[v]; k < topology.neighbour_offsets[v + 1]; ++k) {
+      const glm::vec3 edge = positions[topology.neighbours[k]] - positions[v];
+      tangent = edge - glm::dot(edge, normal) * normal;
+      const float t = glm::length(tangent);
+      if (t > 1e-6f * glm::length(edge) && std::isfinite(t)) {
+        tangent /= t;
+        break;
+      }
+      tangent = glm::vec3(0.0f);
+    }
+    if (tangent == glm::vec3(0.0f)) {
+      const glm::vec3 axis = std::fabs(normal.x) < 0.9f ? glm::vec3(1, 0, 0) : glm::vec3(0, 1, 0);
+      tangent = glm::normalize(axis - glm::dot(axis, normal) * normal);
+    }
+    frames[v] = glm::mat3(tangent, glm::cross(normal, tangent), normal);
+  }
+}
+
+FairingRest make_fairing_rest(const FairingTopology& topology, const glm::vec3* skeletal, const float* radius,
+                              const glm::vec3* positions, uint32_t grid_size, FairingWorkspace& ws,
+                              const AllocatorRef& allocator) {
+  FairingRest rest(allocator);
+  const uint32_t n = topology.vertex_count;
+  Array<glm::mat3> frames(n, glm::mat3(1.0f), CallbackAllocator<glm::mat3>(allocator));
+  fairing_frames(topology, skeletal, positions, frames.data());
+  compute_umbrellas(topology, positions, Targets{}, ws);
+  rest.umbrella.resize(n);
+  rest.bi_umbrella.resize(n);
+  for (uint32_t v = 0; v < n; ++v) {
+    // Frames are orthonormal: the transpose is the inverse.
+    rest.umbrella[v] = glm::transpose(frames[v]) * ws.umbrella[v];
+    rest.bi_umbrella[v] = glm::transpose(frames[v]) * ws.bi_umbrella[v];
+  }
+  rest.triangle_level.resize(topology.triangle_count);
+  for (uint32_t t = 0; t < topology.triangle_count; ++t) {
+    const uint32_t* corner = topology.triangle_indices.data() + 3 * size_t{t};
+    const glm::vec3 centroid = (positions[corner[0]] + positions[corner[1]] + positions[corner[2]]) / 3.0f;
+    const glm::vec3 centres[3] = {skeletal[corner[0]], skeletal[corner[1]], skeletal[corner[2]]};
+    const float radii[3] = {radius[corner[0]], radius[corner[1]], radius[corner[2]]};
+    rest.triangle_level[t] = ball_hull_distance(centroid, centres, radii).value;
+  }
+  rest.field.assign(n, 0.0f);
+  rest.gap.assign(n, 0.0f);
+  const int size = static_cast<int>(grid_size == 0 ? kDefaultGridSize : std::min(grid_size, ws.grid_size));
+  const Grid grid = build_grid(topology, skeletal, radius, positions, size, ws);
+  for (uint32_t v = 0; v < n; ++v) {
+    if (topology.fixed[v]) continue;
+    const FieldValue field = field_at(grid, positions[v], skeletal, radius, ws);
+    if (field.minimiser == std::numeric_limits<uint32_t>::max()) continue;
+    rest.field[v] = field.f;
+    if (field.minimiser != v) {
+      const glm::vec3 d = positions[v] - skeletal[v];
+      rest.gap[v] = std::fabs(field.f - (glm::dot(d, d) - radius[v] * radius[v]));
+    }
+  }
+  return rest;
 }
 
 }  // namespace skelform::runtime

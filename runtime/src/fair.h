@@ -19,6 +19,7 @@
 
 #include "memory.h"
 
+#include <glm/mat3x3.hpp>
 #include <glm/vec3.hpp>
 
 #include <cstddef>
@@ -76,6 +77,9 @@ struct FairingParams {
   // Cells per axis of flow (5)'s grid over the bounding box of skeleton and mesh. 0 = 20
   // (the paper's 20×20×20). Must not exceed the workspace's grid_size.
   uint32_t grid_size = 0;
+  // Optional, per vertex: non-zero = keep this vertex where it is (e.g. the handle driver's
+  // pinned vertices), in addition to open borders. Null = none.
+  const uint8_t* fixed = nullptr;
 };
 
 // Every buffer fair_run() needs, sized once for a topology and a grid resolution. Per instance.
@@ -86,7 +90,8 @@ struct FairingWorkspace {
         start_positions(CallbackAllocator<glm::vec3>(a)), smoothing_weight(CallbackAllocator<float>(a)),
         force_direction(CallbackAllocator<glm::vec3>(a)), cell_offsets(CallbackAllocator<uint32_t>(a)),
         cell_vertices(CallbackAllocator<uint32_t>(a)), cell_max_radius(CallbackAllocator<float>(a)),
-        vertex_cell(CallbackAllocator<uint32_t>(a)) {}
+        vertex_cell(CallbackAllocator<uint32_t>(a)), target_umbrella(CallbackAllocator<glm::vec3>(a)),
+        target_bi_umbrella(CallbackAllocator<glm::vec3>(a)), iteration_start(CallbackAllocator<glm::vec3>(a)) {}
 
   uint32_t vertex_count = 0;
   uint32_t triangle_count = 0;
@@ -102,7 +107,45 @@ struct FairingWorkspace {
   Array<uint32_t> cell_vertices;         // vertex_count
   Array<float> cell_max_radius;          // grid_size³: largest d in the cell (search pruning)
   Array<uint32_t> vertex_cell;           // vertex_count: scratch for the bucket sort
+  Array<glm::vec3> target_umbrella;      // rest U turned into this evaluation's frames (FairingRest)
+  Array<glm::vec3> target_bi_umbrella;   // rest U², likewise
+  Array<glm::vec3> iteration_start;      // positions before the last iteration (its net motion)
+  const uint8_t* caller_fixed = nullptr; // FairingParams::fixed of the current run
 };
+
+// The flows measured from the rest pose (a departure from the paper, DESIGN.md notes): on a
+// real control mesh the rest surface is not a fixed point of (4) and (5) — its umbrellas are
+// not zero, its triangle centroids are not on the envelope of the medial balls and its
+// vertices sit slightly inside neighbouring balls — so the plain flows would reshape an
+// undeformed character. Each term is therefore taken relative to its rest value: the
+// bilaplacian and umbrella vectors minus the rest ones carried by the vertex's local frame,
+// E_T minus the centroid's rest E_T, f minus the vertex's rest f, |f − g| less its rest
+// value. At rest every force is zero; away from rest the flows act as the paper's on what the
+// pose changed. Built once per asset by make_fairing_rest().
+struct FairingRest {
+  explicit FairingRest(const AllocatorRef& a)
+      : umbrella(CallbackAllocator<glm::vec3>(a)), bi_umbrella(CallbackAllocator<glm::vec3>(a)),
+        triangle_level(CallbackAllocator<float>(a)), field(CallbackAllocator<float>(a)),
+        gap(CallbackAllocator<float>(a)) {}
+  Array<glm::vec3> umbrella;     // U(M_rest) per vertex, in its rest local frame (fairing_frames)
+  Array<glm::vec3> bi_umbrella;  // U²(M_rest) per vertex, in its rest local frame
+  Array<float> triangle_level;   // E_T(C) of every triangle at rest
+  Array<float> field;            // f(M_rest) per vertex (flow (5))
+  Array<float> gap;              // |f − g|(M_rest) per vertex (flow (5)'s W numerator)
+};
+
+// Orthonormal frame (columns: tangent, bitangent, normal) per vertex of the control mesh: the
+// normal along M − S (the reconstruction direction; the area-weighted normal where the
+// medial radius is 0), the tangent along the first one-ring edge made orthogonal to it. It
+// turns with the surface, so rest vectors stored in it follow a pose.
+void fairing_frames(const FairingTopology& topology, const glm::vec3* skeletal, const glm::vec3* positions,
+                    glm::mat3* frames);
+
+// Rest targets of `topology` from the rest control mesh, skeletal mesh and radii. Allocates
+// (std::bad_alloc on failure); `workspace` is scratch.
+FairingRest make_fairing_rest(const FairingTopology& topology, const glm::vec3* skeletal, const float* radius,
+                              const glm::vec3* positions, uint32_t grid_size, FairingWorkspace& workspace,
+                              const AllocatorRef& allocator);
 
 // Allocates a workspace for `topology` and grids of up to `grid_size` cells per axis
 // (0 = 20). Throws std::bad_alloc when the allocator fails.
@@ -116,13 +159,16 @@ FairingWorkspace make_fairing_workspace(const FairingTopology& topology, uint32_
 // `skeletal` (S', the deformed skeletal mesh) and `radius` (d, the medial radii) are indexed
 // like `positions`; vertex_count must equal topology.vertex_count and the workspace must have
 // been made for this topology (otherwise nothing moves and the result is -1).
-// Returns the residual of the last iteration: the largest vertex motion divided by the
+// Returns the residual of the last iteration: the largest net vertex motion over it (flow
+// (4)'s step and flow (5)'s together: where they balance, nothing moves) divided by the
 // bounding-box diagonal of the mesh; a caller may stop iterating once it is below ~1e-4.
 // Non-finite input vertices are left where they are and never spread NaN to their neighbours'
 // results beyond their own one-ring (their forces are skipped).
+// With `rest` and `frames` (this evaluation's fairing_frames of the reconstruction), every
+// term is relative to the rest pose (FairingRest); without them (null), the paper's flows.
 float fair_run(const FairingTopology& topology, const glm::vec3* skeletal, const float* radius,
                glm::vec3* positions, size_t vertex_count, const FairingParams& params,
-               FairingWorkspace& workspace);
+               FairingWorkspace& workspace, const FairingRest* rest = nullptr, const glm::mat3* frames = nullptr);
 
 // E_T(P) of flow (4) and its gradient: the signed distance from `point` to the convex hull of
 // the three balls (centres[i], radii[i]) — E_T(P) = min over barycentric b of

@@ -3,7 +3,7 @@
 //
 //   drive_skeleton.cpp  S → S'           skin driver (LBS/DQS of the skeletal vertices) or handles
 //   reconstruct.cpp     S' → M           M = S' + d·N, carried normals or the paper's homotopy (2)/(3)
-//   fair() below        M → M''          flows (4), (5): a no-op hook until the fairing ships
+//   fair_stage.cpp      M → M''          flows (4), (5), warm-started from the previous evaluation
 //   displace.cpp        M'' → dense      Loop stencils, DSS binding, carried normals/tangents
 //   dense_skinning.cpp  baselines        SF_METHOD_LBS / SF_METHOD_DQS on the original vertices
 //   api_instance.cpp    the C API; sf_instance_write copies into the caller's buffers
@@ -13,6 +13,7 @@
 #pragma once
 
 #include "asset.h"
+#include "fair.h"
 #include "memory.h"
 #include "skin_blend.h"
 
@@ -83,12 +84,21 @@ void reconstruct_homotopy(const Deformable& d, const glm::vec3* rest_offset, con
                           const glm::vec3* start_control, const glm::vec3* start_normals, const glm::vec3* skeletal,
                           uint32_t steps, glm::vec3* normals_a, glm::vec3* normals_b, glm::vec3* control_out);
 
-// Stage 3, fairing: flows (4) ∂M/∂t = −α∆²M − F − V (folds and protrusions) and (5)
-// ∂M/∂t = −f∇f − W∆²M (self-intersections), warm-started from the previous evaluation within
-// a per-evaluation budget (DESIGN.md runtime step 3). A hook that does nothing yet: the next
-// issue fills it (fair.h's fair_run). Until then sf_instance_evaluate refuses non-zero
-// fairing options with SF_ERROR_UNSUPPORTED, so no caller can believe it ran.
-inline void fair(const Deformable& /*d*/, const glm::vec3* /*skeletal*/, glm::vec3* /*control*/) {}
+// fair_stage.cpp. Stage 3: flows (4) and (5) (fair.h) on instance.control (M from the
+// reconstruction, with S' in instance.skeletal), in place. `from_rest` discards the warm start
+// and runs to convergence. Options already validated by the caller.
+constexpr uint32_t kMaxIntersectionGrid = 32;     // workspace grid per instance (32³ cells)
+constexpr uint32_t kMaxFairingIterations = 1000;   // per evaluation, incremental budget
+constexpr uint32_t kDefaultFairingIterations = 2;  // per incremental evaluation
+constexpr uint32_t kConvergenceIterations = 64;    // cap from rest or after a pose jump
+constexpr float kConvergedResidual = 1e-5f;        // of the diagonal: converged
+constexpr float kPoseJumpShape = 0.25f;  // change of a vertex's local shape, in edge lengths, that is a pose jump
+
+struct FairStageOptions {
+  FairingParams params;        // flows, stepping, steps, grid; params.iterations = the budget
+  bool from_rest = false;
+};
+void fair_stage(sf_instance& instance, const FairStageOptions& options);
 
 // displace.cpp. Refines the control mesh and places every dense vertex from its DSS binding;
 // with `with_normals`, also normals (and tangents where authored).
@@ -133,6 +143,19 @@ struct sf_instance {
   skelform::runtime::Array<glm::vec3> step_normals_b;
   skelform::runtime::Array<glm::vec3> rest_normal_offset;  // rest_normal_offsets()
   bool has_previous = false;
+
+  // Fairing (fair_stage.cpp): workspace, this evaluation's local frames of M, and the last
+  // correction M'' − M in those frames (the warm start of the next evaluation).
+  skelform::runtime::FairingWorkspace fairing;
+  skelform::runtime::Array<glm::mat3> fairing_frames;
+  skelform::runtime::Array<glm::vec3> fairing_offset;
+  skelform::runtime::Array<glm::vec3> fairing_start;  // M before fairing
+  skelform::runtime::Array<glm::vec3> fairing_shape;  // U(M) per vertex in its frame (pose-jump test)
+  skelform::runtime::Array<uint8_t> fairing_fixed;    // handle driver: vertices kept out of the fairing
+  bool has_fairing_offset = false;
+  skelform::runtime::Driver fairing_driver = skelform::runtime::Driver::skin;  // of the stored correction
+  uint32_t last_fairing_iterations = 0;
+  float last_fairing_residual = 0.0f;
 
   // Refined surface and the dense result sf_instance_write copies out.
   skelform::runtime::Array<glm::vec3> refined_positions;

@@ -6,7 +6,7 @@
 //   the LBS/DQS baselines equal a straightforward double-precision reference;
 // - the handle driver moves the surface toward its targets;
 // - error paths: wrong joint count, NaN matrix, write before evaluate, bad primitive,
-//   non-zero fairing options, bad handle sets; no allocation in evaluate/write.
+//   out-of-range fairing options, bad handle sets; no allocation in evaluate/write.
 #include "runtime/runtime_models.h"
 
 #include <glm/gtc/quaternion.hpp>
@@ -335,15 +335,23 @@ TEST_CASE("evaluate: invalid calls are refused with their result and a message a
   CHECK(sf_instance_set_joint_matrices(instance, &pose[0][0][0], 2, 0) == SF_ERROR_INVALID_ARGUMENT);
 
   sf_eval_options options{};
-  options.fairing_iterations = 5;
-  CHECK(sf_instance_evaluate(instance, &options) == SF_ERROR_UNSUPPORTED);
-  CHECK(std::string(sf_instance_last_error(instance)).find("fairing") != std::string::npos);
+  options.fairing_flags = 0x80;
+  CHECK(sf_instance_evaluate(instance, &options) == SF_ERROR_INVALID_ARGUMENT);
+  CHECK(std::string(sf_instance_last_error(instance)).find("fairing_flags") != std::string::npos);
   options = {};
-  options.fairing_step = 0.1f;
-  CHECK(sf_instance_evaluate(instance, &options) == SF_ERROR_UNSUPPORTED);
+  options.fairing_step = -0.1f;
+  CHECK(sf_instance_evaluate(instance, &options) == SF_ERROR_INVALID_ARGUMENT);
+  options.fairing_step = NAN;
+  CHECK(sf_instance_evaluate(instance, &options) == SF_ERROR_INVALID_ARGUMENT);
   options = {};
-  options.intersection_grid = 20;
-  CHECK(sf_instance_evaluate(instance, &options) == SF_ERROR_UNSUPPORTED);
+  options.intersection_step = INFINITY;
+  CHECK(sf_instance_evaluate(instance, &options) == SF_ERROR_INVALID_ARGUMENT);
+  options = {};
+  options.intersection_grid = 33;
+  CHECK(sf_instance_evaluate(instance, &options) == SF_ERROR_INVALID_ARGUMENT);
+  options = {};
+  options.fairing_iterations = 1001;
+  CHECK(sf_instance_evaluate(instance, &options) == SF_ERROR_INVALID_ARGUMENT);
   options = {};
   options.method = 9;
   CHECK(sf_instance_evaluate(instance, &options) == SF_ERROR_INVALID_ARGUMENT);

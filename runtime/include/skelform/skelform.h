@@ -253,6 +253,12 @@ typedef enum sf_reconstruction {
 #define SF_EVAL_FROM_REST 0x1u       /* ignore the previous evaluation: start from rest and run to convergence */
 #define SF_EVAL_SKIP_NORMALS 0x2u    /* do not compute normals/tangents (sf_instance_write leaves them) */
 
+/* Fairing flags (sf_eval_options.fairing_flags, bit mask). */
+#define SF_FAIR_NO_FOLD_FLOW 0x1u         /* skip flow (4): folds and protrusions */
+#define SF_FAIR_NO_INTERSECTION_FLOW 0x2u /* skip flow (5): self-intersections */
+#define SF_FAIR_OFF 0x3u                  /* no fairing: the reconstruction is refined as it is */
+#define SF_FAIR_EXPLICIT 0x4u             /* the paper's explicit steps instead of semi-implicit ones */
+
 /* Evaluation options; a zeroed struct (or NULL) means the documented defaults. Fields are
  * only appended in later versions. */
 typedef struct sf_eval_options {
@@ -261,18 +267,25 @@ typedef struct sf_eval_options {
   uint32_t reconstruction;      /* sf_reconstruction; 0 = carried normals */
   uint32_t homotopy_steps;      /* L of eq. (2); 0 = 3 (the paper's choice) */
   uint32_t flags;               /* SF_EVAL_* bits */
-  /* Fairing (paper eqs. (4) and (5)); see docs/. Reserved until the fairing ships: must be
-   * zero. */
-  uint32_t fairing_flags;
-  uint32_t fairing_iterations;
-  float fairing_step;
-  float intersection_step;
-  uint32_t intersection_grid;
+  /* Fairing (paper eqs. (4) and (5)), SF_METHOD_SKELFORM only; docs/runtime-api.md "Fairing".
+   * Zero in every field = the defaults. */
+  uint32_t fairing_flags;      /* SF_FAIR_* bits; 0 = both flows, semi-implicit steps */
+  uint32_t fairing_iterations; /* iterations per incremental evaluation; 0 = 2 */
+  float fairing_step;          /* τ of flow (4), dimensionless; 0 = 0.5 (semi-implicit) / 0.2 (explicit) */
+  float intersection_step;     /* τ of flow (5), dimensionless; 0 = 0.3 */
+  uint32_t intersection_grid;  /* cells per axis of flow (5)'s grid, 1 .. 32; 0 = 20 (the paper's) */
 } sf_eval_options;
 
 /* Evaluates the instance's current input (joint matrices or handle targets) into its
- * internal buffers. Incremental by default: state carried from the previous evaluation
- * (fairing warm start) is reused unless SF_EVAL_FROM_REST is set. Never allocates. */
+ * internal buffers. Incremental by default: the fairing warm-starts from the previous
+ * evaluation's correction (carried in each control vertex's local frame, so it follows the
+ * character through translation and rotation) and runs `fairing_iterations` iterations; when
+ * the first iteration still moves a vertex by more than 1e-3 of the bounding-box diagonal (a
+ * pose jump: teleport into another pose, a new animation), it continues until converged, at
+ * most 64 iterations. SF_EVAL_FROM_REST discards the warm start and runs to convergence (at
+ * most 64 iterations): use it for the first frame and whenever the caller knows the pose
+ * jumped. Deterministic: the same sequence of inputs gives the same output bits. Never
+ * allocates. */
 SF_API sf_result sf_instance_evaluate(sf_instance* instance, const sf_eval_options* options);
 
 /* Where sf_instance_write puts one primitive's vertices. A NULL pointer skips that stream.
@@ -304,6 +317,11 @@ typedef enum sf_coarse_mesh {
 /* SF_ERROR_NOT_READY until an SF_METHOD_SKELFORM evaluation has run. Never allocates. */
 SF_API sf_result sf_instance_write_coarse(const sf_instance* instance, uint32_t mesh, float* positions,
                                           size_t stride_bytes, size_t vertex_capacity);
+
+/* What the last SF_METHOD_SKELFORM evaluation's fairing did: the iterations it ran and the
+ * largest vertex motion of its last iteration divided by the bounding-box diagonal (0 and 0
+ * when fairing was off or unsupported: a zero-radius skeleton). Either pointer may be NULL. */
+SF_API sf_result sf_instance_fairing_stats(const sf_instance* instance, uint32_t* iterations, float* residual);
 
 #ifdef __cplusplus
 } /* extern "C" */

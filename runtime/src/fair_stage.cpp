@@ -1,0 +1,93 @@
+// Runtime step 3 (DESIGN.md "Fair"): the fairing flows on the reconstructed control mesh,
+// incremental across evaluations.
+//
+// Warm start. The fairing's result differs from the reconstruction M by a correction c_v per
+// control vertex. It is stored in the vertex's local frame of M (fair.h fairing_frames: the
+// reconstruction direction and a one-ring edge), so that the next evaluation starts from
+// M_next + frame_next · c: a character that translates or turns keeps its correction, and a
+// pose that changes a little needs only a few iterations to follow. From rest (or the first
+// evaluation) the correction is 0 and the flows run to convergence.
+#include "instance.h"
+
+#include <glm/geometric.hpp>
+#include <glm/matrix.hpp>
+
+#include <algorithm>
+#include <cstring>
+
+namespace skelform::runtime {
+
+void fair_stage(sf_instance& instance, const FairStageOptions& options) {
+  const Deformable& d = *instance.deformable;
+  instance.last_fairing_iterations = 0;
+  instance.last_fairing_residual = 0.0f;
+  const bool enabled = d.fairing_supported && (options.params.fold_flow || options.params.intersection_flow);
+  if (!enabled) {
+    instance.has_fairing_offset = false;
+    return;
+  }
+  const size_t n = d.control_vertex_count;
+  glm::vec3* x = instance.control.data();
+  const glm::vec3* skeletal = instance.skeletal.data();
+  glm::mat3* frames = instance.fairing_frames.data();
+  fairing_frames(d.fairing_topology, skeletal, x, frames);
+  std::memcpy(instance.fairing_start.data(), x, n * sizeof(glm::vec3));
+
+  // Pose jump: the local shape of M (each umbrella vector in its vertex's frame, in units of
+  // the vertex's mean edge length) changed by more than kPoseJumpShape somewhere since the
+  // last evaluation. Rigid motion leaves it unchanged; 30 fps animation changes it by a few
+  // hundredths; a teleport into another pose, a new animation or a switch of driver by more.
+  // The stored correction then belongs to another pose and is discarded.
+  const FairingTopology& topo = d.fairing_topology;
+  float shape_change = 0.0f;
+  for (uint32_t v = 0; v < n; ++v) {
+    const uint32_t begin = topo.neighbour_offsets[v], end = topo.neighbour_offsets[v + 1];
+    if (begin == end) continue;
+    glm::vec3 mean(0.0f);
+    float edge = 0.0f;
+    for (uint32_t k = begin; k < end; ++k) {
+      mean += x[topo.neighbours[k]];
+      edge += glm::length(x[topo.neighbours[k]] - x[v]);
+    }
+    const float count = static_cast<float>(end - begin);
+    const glm::vec3 shape = glm::transpose(frames[v]) * (mean / count - x[v]) / std::max(edge / count, 1e-30f);
+    const float change = glm::length(shape - instance.fairing_shape[v]);
+    if (std::isfinite(change)) shape_change = std::max(shape_change, change);
+    instance.fairing_shape[v] = shape;
+  }
+  // A switch of driver (handles ↔ skin) is a jump too.
+  const bool warm = !options.from_rest && instance.has_fairing_offset && shape_change <= kPoseJumpShape &&
+                    instance.fairing_driver == instance.driver;
+  instance.fairing_driver = instance.driver;
+  if (warm)
+    for (size_t v = 0; v < n; ++v) x[v] += frames[v] * instance.fairing_offset[v];
+
+  FairingParams params = options.params;
+  // The handle driver's pinned region stays at rest (paper Fig. 1): a skeletal vertex that the
+  // displacement field left exactly in place keeps its control vertex out of the fairing.
+  if (instance.driver == Driver::handles) {
+    for (size_t v = 0; v < n; ++v) instance.fairing_fixed[v] = skeletal[v] == d.skeletal_positions[v] ? 1 : 0;
+    params.fixed = instance.fairing_fixed.data();
+  }
+  const uint32_t budget = params.iterations == 0 ? kDefaultFairingIterations : params.iterations;
+  const uint32_t limit = warm ? budget : std::max(budget, kConvergenceIterations);
+  params.iterations = 1;
+  uint32_t done = 0;
+  float residual = 0.0f;
+  while (done < limit) {
+    residual = fair_run(topo, skeletal, d.medial_radius.data(), x, n, params, instance.fairing, &d.fairing_rest,
+                        frames);
+    ++done;
+    if (residual < 0.0f) break;  // size mismatch: cannot happen for an instance of this asset
+    if (!warm && residual < kConvergedResidual) break;
+  }
+  instance.last_fairing_iterations = done;
+  instance.last_fairing_residual = residual;
+
+  // The correction, in the local frames, for the next evaluation's warm start.
+  for (size_t v = 0; v < n; ++v)
+    instance.fairing_offset[v] = glm::transpose(frames[v]) * (x[v] - instance.fairing_start[v]);
+  instance.has_fairing_offset = true;
+}
+
+}  // namespace skelform::runtime
