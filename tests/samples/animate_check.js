@@ -3,7 +3,14 @@
 // and prints what it measured. Standard library only (no npm package needed).
 //
 //   node animate_check.js OUT.glb [--animations name1,name2,...] [--frames n1,n2,...]
-//                                 [--source NAME] [--fps F]
+//                                 [--source NAME] [--fps F] [--expect-from SOURCE.glb]
+//   node animate_check.js --strip animations|skins IN.glb OUT.glb
+//
+// --expect-from derives the expected names and frame counts from the source model itself:
+// its animations' names (or "animation N") and durations (the extent of their samplers'
+// inputs), ceil(duration × fps) + 1 frames each (at most 300), or one "rest pose" frame when
+// it has none. --strip writes a copy of a GLB without its animations, or without skins,
+// joint attributes and animations (an unskinned model): inputs for the error-path tests.
 //
 // Checks: GLB container; asset.extras.skelform (fps, source, offset, animation ranges that
 // tile the targets in order); per deformable three root nodes with the roles skelform, lbs,
@@ -28,6 +35,7 @@ function parseArgs(argv) {
     else if (a === '--frames') args.frames = argv[++i].split(',').map(Number);
     else if (a === '--source') args.source = argv[++i];
     else if (a === '--fps') args.fps = Number(argv[++i]);
+    else if (a === '--expect-from') args.expectFrom = argv[++i];
     else if (!args.file) args.file = a;
     else return null;
   }
@@ -86,6 +94,24 @@ function main() {
     targetCount += r.frame_count;
   }
   check(targetCount > 0, 'no frame at all');
+  if (args.expectFrom) {
+    const source = readGlb(args.expectFrom).json;
+    const fps = args.fps !== undefined ? args.fps : 30;
+    const names = [], frames = [];
+    (source.animations || []).forEach((animation, a) => {
+      let start = Infinity, end = -Infinity;
+      for (const sampler of animation.samplers) {
+        const input = source.accessors[sampler.input];
+        start = Math.min(start, input.min[0]);
+        end = Math.max(end, input.max[0]);
+      }
+      names.push(animation.name ? animation.name : `animation ${a}`);
+      frames.push(end > start ? Math.min(300, Math.ceil((end - start) * fps - 1e-6) + 1) : 1);
+    });
+    if (names.length === 0) { names.push('rest pose'); frames.push(1); }
+    args.animations = args.animations || names;
+    args.frames = args.frames || frames;
+  }
   if (args.animations) check(JSON.stringify(ranges.map((r) => r.name)) === JSON.stringify(args.animations),
                              `animation names ${JSON.stringify(ranges.map((r) => r.name))}, expected ${JSON.stringify(args.animations)}`);
   if (args.frames) check(JSON.stringify(ranges.map((r) => r.frame_count)) === JSON.stringify(args.frames),
@@ -207,8 +233,34 @@ function report(failures) {
   return failures.length ? 1 : 0;
 }
 
+function strip(what, input, output) {
+  const { json, bin } = readGlb(input);
+  delete json.animations;
+  if (what === 'skins') {
+    delete json.skins;
+    for (const node of json.nodes || []) delete node.skin;
+    for (const mesh of json.meshes || [])
+      for (const p of mesh.primitives) for (const a of Object.keys(p.attributes)) if (/^(JOINTS|WEIGHTS)_/.test(a)) delete p.attributes[a];
+  } else if (what !== 'animations') {
+    throw new Error(`--strip takes animations or skins, not ${what}`);
+  }
+  const text = Buffer.from(JSON.stringify(json), 'utf8');
+  const jsonChunk = Buffer.concat([text, Buffer.alloc((4 - (text.length % 4)) % 4, ' ')]);
+  const header = Buffer.alloc(20), binHeader = Buffer.alloc(8);
+  header.write('glTF', 0, 'latin1');
+  header.writeUInt32LE(2, 4);
+  header.writeUInt32LE(20 + jsonChunk.length + 8 + bin.length, 8);
+  header.writeUInt32LE(jsonChunk.length, 12);
+  header.writeUInt32LE(0x4e4f534a, 16);
+  binHeader.writeUInt32LE(bin.length, 0);
+  binHeader.writeUInt32LE(0x004e4942, 4);
+  fs.writeFileSync(output, Buffer.concat([header, jsonChunk, binHeader, bin]));
+  return 0;
+}
+
 try {
-  process.exitCode = main();
+  const argv = process.argv.slice(2);
+  process.exitCode = argv[0] === '--strip' && argv.length === 4 ? strip(argv[1], argv[2], argv[3]) : main();
 } catch (err) {
   console.log(`FAIL: ${err.message}`);
   process.exitCode = 1;
