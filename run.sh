@@ -1,9 +1,15 @@
 #!/usr/bin/env bash
 # skelform: set up everything on a fresh Debian 12 machine and run.
 #
-#   ./run.sh                 install missing packages, build, run the main job on the
-#                            project's own procedural character
-#   ./run.sh MODEL           the same main job on your own model (.glb/.gltf/.obj/.ply/.off)
+#   ./run.sh                 install missing packages, build, run the main job: generate the
+#                            project's own procedural character, rigged and animated in code
+#                            (walk, deep bend), bake it and play its animations through
+#                            skelform and LBS into out/character.anim.glb (a standard glTF
+#                            any viewer plays), write its skeletal mesh as OBJ, and print
+#                            the command that opens the web viewer
+#   ./run.sh MODEL           the same main job on your own skinned glTF (.glb/.gltf) into
+#                            out/MODEL.anim.glb; .obj/.ply/.off: the skeletal mesh only
+#   ./run.sh viewer FILE     open FILE (an .anim.glb) in the web viewer (samples/viewer)
 #   ./run.sh test            install missing packages, build, run the whole test suite,
 #                            then again under AddressSanitizer + UndefinedBehaviorSanitizer,
 #                            and the multi-threaded instance test under ThreadSanitizer
@@ -80,21 +86,53 @@ run_main_job() {
   mkdir -p "$root/out"
   local model=${1:-}
   if [ -z "$model" ]; then
-    echo "==> generating the procedural test character"
-    "$root/build/samples/skelform-character" -o "$root/out/character.obj"
-    model="$root/out/character.obj"
+    echo "==> generating the procedural test character, rigged and animated (walk, bend)"
+    "$root/build/samples/skelform-character" -o "$root/out/character.glb"
+    model="$root/out/character.glb"
   fi
-  local name
+  if [ ! -f "$model" ]; then
+    echo "run.sh: error: $model: no such file" >&2
+    exit 1
+  fi
+  local name extension
   name=$(basename "${model%.*}")
+  extension=$(printf '%s' "${model##*.}" | tr '[:upper:]' '[:lower:]')
   echo "==> baking the skeletal mesh of $model"
   "$root/build/bake/skelform-bake" skeleton "$model" -o "$root/out/$name.skeleton.obj" \
       --voronoi-points "$root/out/$name.voronoi.obj" -v
   echo "==> wrote out/$name.skeleton.obj (skeletal mesh) and out/$name.voronoi.obj (inner Voronoi vertices)"
+  if [ "$extension" != glb ] && [ "$extension" != gltf ]; then
+    echo "==> $model is not a glTF: no skin or animation to play (give a skinned .glb or .gltf)"
+    return 0
+  fi
+  echo "==> playing every animation of $model through skelform and LBS (baked first if needed)"
+  "$root/build/samples/skelform-animate" "$model" -o "$root/out/$name.anim.glb"
+  if command -v node >/dev/null 2>&1 && [ -d "$root/tools/node_modules/gltf-validator" ]; then
+    node "$root/tools/validate-gltf.js" "$root/out/$name.anim.glb" | head -n 1
+  fi
+  echo "==> wrote out/$name.anim.glb: skelform (left) beside LBS (right) and the skeletal mesh, any glTF viewer plays it"
+  echo "==> open it in the web viewer:"
+  echo "    ./run.sh viewer out/$name.anim.glb"
+}
+
+# The web viewer (samples/viewer) serves itself with its own script; this only forwards.
+run_viewer() {
+  if [ $# -ne 1 ]; then
+    echo "usage: ./run.sh viewer FILE.anim.glb" >&2
+    exit 1
+  fi
+  if [ ! -f "$root/samples/viewer/serve.sh" ]; then
+    echo "run.sh: the web viewer (samples/viewer) is not in this checkout; $1 is a standard glTF," >&2
+    echo "open it in any glTF viewer meanwhile" >&2
+    exit 1
+  fi
+  exec bash "$root/samples/viewer/serve.sh" "$@"
 }
 
 install_missing_packages
 case "${1:-}" in
   test) run_tests ;;
-  -h|--help) sed -n '2,12p' "$0" ;;
+  viewer) shift; run_viewer "$@" ;;
+  -h|--help) sed -n '2,18p' "$0" ;;
   *) run_main_job "${1:-}" ;;
 esac
