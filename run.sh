@@ -7,6 +7,11 @@
 #   ./run.sh test            install missing packages, build, run the whole test suite,
 #                            then again under AddressSanitizer + UndefinedBehaviorSanitizer,
 #                            and the multi-threaded instance test under ThreadSanitizer
+#                            (with the web viewer's browser test in headless chromium)
+#   ./run.sh viewer FILE.glb...  serve the web viewer for skelform-animate files on 127.0.0.1
+#                            and print the URL to open (installs three.js from npm once)
+#   ./run.sh screenshots     regenerate the README's pictures (docs/images/*.png) from the web
+#                            viewer in headless chromium (needs CesiumMan and Fox in the data dir)
 #
 # Environment: JOBS (parallel build jobs, default: all cores), SKELFORM_DATA_DIR (the
 # third-party models the tests read; default ../shared/data, tests skip when absent).
@@ -92,9 +97,47 @@ run_main_job() {
   echo "==> wrote out/$name.skeleton.obj (skeletal mesh) and out/$name.voronoi.obj (inner Voronoi vertices)"
 }
 
+# The web viewer (samples/viewer): three.js and playwright-core pinned in its package-lock.json.
+install_viewer() {
+  if ! command -v node >/dev/null 2>&1 || ! command -v npm >/dev/null 2>&1; then
+    local sudo=""
+    [ "$(id -u)" -eq 0 ] || sudo="sudo"
+    echo "==> installing: nodejs npm"
+    $sudo apt-get update -qq
+    DEBIAN_FRONTEND=noninteractive $sudo apt-get install -y -qq --no-install-recommends nodejs npm
+  fi
+  if [ ! -d "$root/samples/viewer/node_modules/three" ] || [ ! -d "$root/samples/viewer/node_modules/playwright-core" ]; then
+    echo "==> npm ci (samples/viewer: three.js, playwright-core)"
+    (cd "$root/samples/viewer" && npm ci --no-audit --no-fund --loglevel=error)
+  fi
+}
+
+# docs/images/*.png: the README's pictures, from the viewer on skelform-animate's files.
+run_screenshots() {
+  install_viewer
+  local data=${SKELFORM_DATA_DIR:-$root/../shared/data} model
+  for model in CesiumMan/CesiumMan.glb Fox/Fox.glb; do
+    [ -f "$data/$model" ] || { echo "run.sh screenshots: $data/$model not found (set SKELFORM_DATA_DIR)" >&2; exit 1; }
+  done
+  build "$root/build" -DCMAKE_BUILD_TYPE=Release --target skelform-animate
+  local work=$root/out/screenshots
+  mkdir -p "$work"
+  echo "==> skelform-animate CesiumMan, Fox"
+  "$root/build/samples/skelform-animate" "$data/CesiumMan/CesiumMan.glb" -o "$work/CesiumMan.anim.glb"
+  "$root/build/samples/skelform-animate" "$data/Fox/Fox.glb" -o "$work/Fox.anim.glb"
+  echo "==> screenshots (headless chromium)"
+  node "$root/samples/viewer/headless/screenshots.js" "$root/docs/images" \
+       --cesium "$work/CesiumMan.anim.glb" --fox "$work/Fox.anim.glb"
+}
+
+case "${1:-}" in
+  test|screenshots) apt_packages+=(chromium) ;;  # headless browser for the viewer's test and pictures
+esac
 install_missing_packages
 case "${1:-}" in
-  test) run_tests ;;
-  -h|--help) sed -n '2,12p' "$0" ;;
+  test) install_viewer; run_tests ;;
+  viewer) shift; install_viewer; exec "$root/samples/viewer/serve.sh" "$@" ;;
+  screenshots) run_screenshots ;;
+  -h|--help) sed -n '2,17p' "$0" ;;
   *) run_main_job "${1:-}" ;;
 esac

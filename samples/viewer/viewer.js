@@ -429,6 +429,8 @@ window.skelformViewer = {
     }
     return best.distance < 0 ? null : best;
   },
+  // The fitted camera: centre of all frames' bounds (for setView) and their bounding radius.
+  get home() { return state.home ? { target: state.home.centre.toArray(), distance: null } : null; },
   get radius() { return state.home ? state.home.radius : 0; },
 };
 

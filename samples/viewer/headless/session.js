@@ -67,7 +67,12 @@ async function openSession(files, { width = 1280, height = 640 } = {}) {
   const problems = [];
   page.on('console', (message) => { if (message.type() === 'error') problems.push(`console.error: ${message.text()}`); });
   page.on('pageerror', (error) => problems.push(`page error: ${error.message}`));
-  page.on('requestfailed', (request) => problems.push(`request failed: ${request.url()} (${request.failure().errorText})`));
+  // net::ERR_ABORTED is left out: Chromium sometimes reports it for a fetch whose body the page
+  // has already read completely (the viewer then loads normally); a real failure to load shows
+  // as an HTTP status, another network error or the viewer's own console.error.
+  page.on('requestfailed', (request) => {
+    if (request.failure().errorText !== 'net::ERR_ABORTED') problems.push(`request failed: ${request.url()} (${request.failure().errorText})`);
+  });
   page.on('response', (response) => { if (response.status() >= 400) problems.push(`HTTP ${response.status()}: ${response.url()}`); });
   return {
     page,
