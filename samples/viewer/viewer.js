@@ -160,18 +160,24 @@ function fitCamera() {
   const box = frameBounds();
   if (box.isEmpty()) return;
   const centre = box.getCenter(new THREE.Vector3());
-  const radius = box.getSize(new THREE.Vector3()).length() / 2;
-  state.home = { centre, radius };
+  const size = box.getSize(new THREE.Vector3());
+  state.home = { centre, radius: size.length() / 2, size };
   setView({ target: centre.toArray(), distance: null, azimuth: 20, elevation: 10 });
 }
 
-// Camera by orbit parameters (degrees); distance null = fit the whole animation.
-function setView({ target, distance = null, azimuth = 0, elevation = 0 }) {
+// Camera by orbit parameters (degrees); distance null = fit the whole animation, divided by zoom.
+function setView({ target, distance = null, azimuth = 0, elevation = 0, zoom = 1 }) {
   const aspect = camera.aspect || 1;
   const vertical = THREE.MathUtils.degToRad(camera.fov) / 2;
   const horizontal = Math.atan(Math.tan(vertical) * aspect);
-  const fit = state.home ? 1.1 * state.home.radius / Math.sin(Math.min(vertical, horizontal)) : 3;
-  const d = distance == null ? fit : distance;
+  // Fit: the bounds' height in the vertical field of view and their widest horizontal extent
+  // (whatever the azimuth) in the horizontal one, from in front of their near side.
+  let fit = 3;
+  if (state.home) {
+    const { size } = state.home, across = Math.hypot(size.x, size.z);
+    fit = 1.08 * Math.max(size.y / 2 / Math.tan(vertical), across / 2 / Math.tan(horizontal)) + across / 2;
+  }
+  const d = distance == null ? fit / zoom : distance;
   const az = THREE.MathUtils.degToRad(azimuth), el = THREE.MathUtils.degToRad(elevation);
   const t = new THREE.Vector3(...target);
   camera.position.set(t.x + d * Math.cos(el) * Math.sin(az), t.y + d * Math.sin(el), t.z + d * Math.cos(el) * Math.cos(az));
@@ -207,6 +213,7 @@ function install(gltf, sourceName) {
     // The LBS copy stands beside skelform in the file (translation [offset, 0, 0]); here it
     // gets its own view, so it goes back onto skelform's place and both share one camera.
     if (role === 'lbs') node.position.set(0, 0, 0);
+    let primitive = 0;
     node.traverse((object) => {
       object.layers.set(ROLE_LAYER[role] || 1);
       if (!object.isMesh) return;
@@ -221,7 +228,10 @@ function install(gltf, sourceName) {
         object.visible = state.showSkeletal;
         state.skeletal.push(object);
       } else {
-        state.surfaces.push(prepareSurface(object, role));
+        // Which surface of the other role is the same primitive: deformable and order in the node.
+        const surface = prepareSurface(object, role);
+        surface.key = `${node.userData.skelform.deformable}:${primitive++}`;
+        state.surfaces.push(surface);
       }
     });
   }
@@ -380,7 +390,7 @@ elements['file-input'].addEventListener('change', () => {
   if (file) loadFile(file).catch((err) => showMessage(`cannot open ${file.name}: ${err.message}`));
 });
 window.addEventListener('keydown', (event) => {
-  if (event.target.tagName === 'INPUT' && event.target.type !== 'checkbox' && event.target.type !== 'range') return;
+  if (['INPUT', 'SELECT', 'BUTTON'].includes(event.target.tagName)) return;  // they handle the space bar themselves
   if (event.code === 'Space') { setPlaying(!state.playing); event.preventDefault(); }
 });
 window.addEventListener('resize', resize);
@@ -411,8 +421,8 @@ window.skelformViewer = {
   largestDifference() {
     let best = { distance: -1 };
     for (const s of state.surfaces.filter((x) => x.role === 'skelform')) {
-      const lbs = state.surfaces.find((x) => x.role === 'lbs' && x.base.length === s.base.length);
-      if (!lbs) continue;
+      const lbs = state.surfaces.find((x) => x.role === 'lbs' && x.key === s.key);
+      if (!lbs || lbs.base.length !== s.base.length) continue;
       state.animations.forEach((a, ai) => {
         for (let k = 0; k < a.frame_count; ++k) {
           const ts = s.targets[a.first_target + k], tl = lbs.targets[a.first_target + k];

@@ -42,7 +42,11 @@ async function main() {
   try {
     // CesiumMan: its walk, half-way.
     await session.open(0);
-    await page.evaluate(() => window.skelformViewer.setFrame(Math.floor(window.skelformViewer.frameCount / 2)));
+    await page.evaluate(() => {
+      const v = window.skelformViewer;
+      v.setFrame(Math.floor(v.frameCount / 2));
+      v.setView({ ...v.home, azimuth: 20, elevation: 5, zoom: 1.25 });
+    });
     await shoot(page, path.join(options.out, 'cesiumman.png'));
 
     // Fox: the walk when there is one, half-way.
@@ -52,7 +56,7 @@ async function main() {
       const walk = v.animations.findIndex((a) => /walk/i.test(a.name));
       v.setAnimation(walk >= 0 ? walk : 0);
       v.setFrame(Math.floor(v.frameCount / 2));
-      v.setView({ ...v.home, azimuth: 60, elevation: 10 });  // the fox walks along z: see it from its side
+      v.setView({ ...v.home, azimuth: 60, elevation: 10, zoom: 1.2 });  // the fox walks along z: see it from its side
     });
     await shoot(page, path.join(options.out, 'fox.png'));
 
@@ -64,7 +68,7 @@ async function main() {
       v.setAnimation(d.animation);
       v.setFrame(d.frame);
       v.setCurvature(true);
-      v.setView({ target: d.point, distance: 0.9 * v.radius, azimuth: 90, elevation: 10 });
+      v.setView({ target: d.point, distance: 0.8 * v.radius, azimuth: 90, elevation: 10 });  // from the side
       return d;
     });
     console.log(`close-up: animation ${joint.animation}, frame ${joint.frame}, point ${joint.point.map((x) => x.toFixed(3)).join(' ')}, ` +
