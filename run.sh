@@ -9,10 +9,14 @@
 #                            the command that opens the web viewer
 #   ./run.sh MODEL           the same main job on your own skinned glTF (.glb/.gltf) into
 #                            out/MODEL.anim.glb; .obj/.ply/.off: the skeletal mesh only
-#   ./run.sh viewer FILE     open FILE (an .anim.glb) in the web viewer (samples/viewer)
 #   ./run.sh test            install missing packages, build, run the whole test suite,
 #                            then again under AddressSanitizer + UndefinedBehaviorSanitizer,
 #                            and the multi-threaded instance test under ThreadSanitizer
+#                            (with the web viewer's browser test in headless chromium)
+#   ./run.sh viewer FILE.glb...  serve the web viewer for skelform-animate files on 127.0.0.1
+#                            and print the URL to open (installs three.js from npm once)
+#   ./run.sh screenshots     regenerate the README's pictures (docs/images/*.png) from the web
+#                            viewer in headless chromium (needs CesiumMan and Fox in the data dir)
 #
 # Environment: JOBS (parallel build jobs, default: all cores), SKELFORM_DATA_DIR (the
 # third-party models the tests read; default ../shared/data, tests skip when absent).
@@ -115,24 +119,47 @@ run_main_job() {
   echo "    ./run.sh viewer out/$name.anim.glb"
 }
 
-# The web viewer (samples/viewer) serves itself with its own script; this only forwards.
-run_viewer() {
-  if [ $# -ne 1 ]; then
-    echo "usage: ./run.sh viewer FILE.anim.glb" >&2
-    exit 1
+# The web viewer (samples/viewer): three.js and playwright-core pinned in its package-lock.json.
+install_viewer() {
+  if ! command -v node >/dev/null 2>&1 || ! command -v npm >/dev/null 2>&1; then
+    local sudo=""
+    [ "$(id -u)" -eq 0 ] || sudo="sudo"
+    echo "==> installing: nodejs npm"
+    $sudo apt-get update -qq
+    DEBIAN_FRONTEND=noninteractive $sudo apt-get install -y -qq --no-install-recommends nodejs npm
   fi
-  if [ ! -f "$root/samples/viewer/serve.sh" ]; then
-    echo "run.sh: the web viewer (samples/viewer) is not in this checkout; $1 is a standard glTF," >&2
-    echo "open it in any glTF viewer meanwhile" >&2
-    exit 1
+  if [ ! -d "$root/samples/viewer/node_modules/three" ] || [ ! -d "$root/samples/viewer/node_modules/playwright-core" ]; then
+    echo "==> npm ci (samples/viewer: three.js, playwright-core)"
+    (cd "$root/samples/viewer" && npm ci --no-audit --no-fund --loglevel=error)
   fi
-  exec bash "$root/samples/viewer/serve.sh" "$@"
 }
 
+# docs/images/*.png: the README's pictures, from the viewer on skelform-animate's files.
+run_screenshots() {
+  install_viewer
+  local data=${SKELFORM_DATA_DIR:-$root/../shared/data} model
+  for model in CesiumMan/CesiumMan.glb Fox/Fox.glb; do
+    [ -f "$data/$model" ] || { echo "run.sh screenshots: $data/$model not found (set SKELFORM_DATA_DIR)" >&2; exit 1; }
+  done
+  build "$root/build" -DCMAKE_BUILD_TYPE=Release --target skelform-animate
+  local work=$root/out/screenshots
+  mkdir -p "$work"
+  echo "==> skelform-animate CesiumMan, Fox"
+  "$root/build/samples/skelform-animate" "$data/CesiumMan/CesiumMan.glb" -o "$work/CesiumMan.anim.glb"
+  "$root/build/samples/skelform-animate" "$data/Fox/Fox.glb" -o "$work/Fox.anim.glb"
+  echo "==> screenshots (headless chromium)"
+  node "$root/samples/viewer/headless/screenshots.js" "$root/docs/images" \
+       --cesium "$work/CesiumMan.anim.glb" --fox "$work/Fox.anim.glb"
+}
+
+case "${1:-}" in
+  test|screenshots) apt_packages+=(chromium) ;;  # headless browser for the viewer's test and pictures
+esac
 install_missing_packages
 case "${1:-}" in
-  test) run_tests ;;
-  viewer) shift; run_viewer "$@" ;;
-  -h|--help) sed -n '2,18p' "$0" ;;
+  test) install_viewer; run_tests ;;
+  viewer) shift; install_viewer; exec "$root/samples/viewer/serve.sh" "$@" ;;
+  screenshots) run_screenshots ;;
+  -h|--help) sed -n '2,22p' "$0" ;;
   *) run_main_job "${1:-}" ;;
 esac
