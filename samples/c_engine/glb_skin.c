@@ -102,6 +102,22 @@ static uint32_t le32(const unsigned char* p) {
   return (uint32_t)p[0] | (uint32_t)p[1] << 8 | (uint32_t)p[2] << 16 | (uint32_t)p[3] << 24;
 }
 
+/* Decodes base64 text (up to its closing quote) into `out`, at most `capacity` bytes;
+ * returns the number of bytes decoded. */
+static size_t base64_decode(const char* text, unsigned char* out, size_t capacity) {
+  static const char alphabet[] = "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
+  unsigned long bits = 0;
+  int bit_count = 0;
+  size_t n = 0;
+  const char* digit;
+  for (; *text && *text != '"' && *text != '=' && n < capacity; ++text) {
+    if (!(digit = strchr(alphabet, *text))) return n;
+    bits = (bits << 6 | (unsigned long)(digit - alphabet)) & 0xFFFFFFu;
+    if ((bit_count += 6) >= 8) out[n++] = (unsigned char)(bits >> (bit_count -= 8));
+  }
+  return n;
+}
+
 static void* alloc_array(const sf_allocator* allocator, size_t count, size_t size) {
   if (count == 0) count = 1;
   if (count > (size_t)-1 / size) return NULL;
@@ -124,6 +140,7 @@ void glb_skin_free(glb_skin* skin, const sf_allocator* allocator) {
 int glb_skin_read(const unsigned char* data, size_t size, int32_t skin_index, const sf_allocator* allocator,
                   glb_skin* out, char* error, size_t error_capacity) {
   char* json = NULL;
+  unsigned char* decoded = NULL; /* a buffer given as a base64 data URI (.gltf input kept it) */
   long* joint_node = NULL; /* node of each joint; reused as each joint's depth for `order` */
   const unsigned char* bin = NULL;
   size_t bin_size = 0, json_size;
@@ -188,23 +205,42 @@ int glb_skin_read(const unsigned char* data, size_t size, int32_t skin_index, co
     const long view_offset = json_index(json_member(view, "byteOffset"), 0);
     const long view_length = json_index(json_member(view, "byteLength"), -1);
     const long stride = json_index(json_member(view, "byteStride"), 64);
+    const long buffer_index = json_index(json_member(view, "buffer"), -1);
+    const char* buffer = json_element(json_member(json, "buffers"), buffer_index);
+    const char* uri = json_member(buffer, "uri");
+    const unsigned char* bytes = bin;
+    size_t byte_count = bin_size;
     if (!accessor || json_index(json_member(accessor, "componentType"), -1) != 5126 ||
         !json_string_is(json_member(accessor, "type"), "MAT4") ||
         json_index(json_member(accessor, "count"), -1) < n)
       FAIL("inverseBindMatrices: not %ld float MAT4", n);
-    if (!view || json_index(json_member(view, "buffer"), 0) != 0 || !bin || accessor_offset < 0 || view_offset < 0 ||
-        view_length < 0 || stride < 64 || (size_t)view_offset + (size_t)view_length > bin_size ||
+    if (uri) { /* not the BIN chunk: only a base64 data URI is read, not external files */
+      const char* base64 = strstr(uri, ";base64,");
+      const long length = json_index(json_member(buffer, "byteLength"), -1);
+      if (strncmp(uri, "\"data:", 6) != 0 || !base64 || base64 > json_skip_string(uri) || length <= 0)
+        FAIL("inverseBindMatrices: buffer %ld is an external file; this reader takes the BIN chunk or data URIs",
+             buffer_index);
+      if (!(decoded = alloc_array(allocator, (size_t)length, 1))) FAIL("out of memory");
+      byte_count = base64_decode(base64 + 8, decoded, (size_t)length);
+      bytes = decoded;
+    } else if (buffer_index != 0) {
+      bytes = NULL;
+    }
+    if (!view || !bytes || accessor_offset < 0 || view_offset < 0 ||
+        view_length < 0 || stride < 64 || (size_t)view_offset + (size_t)view_length > byte_count ||
         (size_t)accessor_offset + (size_t)(n - 1) * (size_t)stride + 64 > (size_t)view_length)
-      FAIL("inverseBindMatrices: not inside the GLB's BIN chunk");
+      FAIL("inverseBindMatrices: not inside buffer %ld", buffer_index);
     /* glTF is little-endian, like every platform this example targets. */
     for (i = 0; i < n; ++i)
-      memcpy(out->inverse_bind + 16 * i, bin + view_offset + accessor_offset + i * stride, 64);
+      memcpy(out->inverse_bind + 16 * i, bytes + view_offset + accessor_offset + i * stride, 64);
   }
+  allocator->free(allocator->user, decoded);
   allocator->free(allocator->user, joint_node);
   allocator->free(allocator->user, json);
   return 1;
 
 fail:
+  allocator->free(allocator->user, decoded);
   allocator->free(allocator->user, joint_node);
   allocator->free(allocator->user, json);
   glb_skin_free(out, allocator);
