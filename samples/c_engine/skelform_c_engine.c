@@ -88,7 +88,7 @@ static void engine_free(void* user, void* ptr) {
 static const char* advice(sf_result result) {
   switch (result) {
     case SF_OK: return "success";
-    case SF_ERROR_INVALID_ARGUMENT: return "a caller bug: fix the call; the object is unchanged and usable";
+    case SF_ERROR_INVALID_ARGUMENT: return "a caller bug: fix the call; the object stays usable";
     case SF_ERROR_INVALID_DATA: return "corrupt asset: re-bake it with skelform-bake";
     case SF_ERROR_VERSION_MISMATCH: return "baked for a newer runtime: update skelform or re-bake";
     case SF_ERROR_OUT_OF_MEMORY: return "the allocator refused: free memory or raise the budget, retry";
@@ -286,8 +286,10 @@ static int show_error_paths(const char* path, const unsigned char* file, size_t 
     static const char key[] = "\"majorVersion\":";
     memcpy(copy, file, file_size);
     for (i = 0; i + sizeof key < file_size && memcmp(copy + i, key, sizeof key - 1) != 0; ++i) continue;
-    for (i += sizeof key - 1; i < file_size && copy[i] == ' '; ++i) continue;
-    if (i < file_size) copy[i] = '9';
+    if (i + sizeof key < file_size) {
+      for (i += sizeof key - 1; i < file_size && copy[i] == ' '; ++i) continue;
+      if (i < file_size) copy[i] = '9';
+    }
     failures += !expect(sf_asset_load_memory(copy, file_size, load, &bad_asset), SF_ERROR_VERSION_MISMATCH,
                         "sf_asset_load_memory(majorVersion 9)", load->error_message);
     load->allocator->free(load->allocator->user, copy);
@@ -309,7 +311,7 @@ static int show_error_paths(const char* path, const unsigned char* file, size_t 
   failures += !expect(sf_instance_set_joint_matrices(ch->instance, ch->skinning, joint_count + 1, 0),
                       SF_ERROR_INVALID_ARGUMENT, "sf_instance_set_joint_matrices(count + 1)",
                       sf_instance_last_error(ch->instance));
-  ch->skinning[5] = NAN;
+  ch->skinning[5] = NAN; /* the skinning matrices hold the bind pose (identities) here */
   failures += !expect(sf_instance_set_joint_matrices(ch->instance, ch->skinning, joint_count, 0),
                       SF_ERROR_INVALID_ARGUMENT, "sf_instance_set_joint_matrices(NaN)", sf_instance_last_error(ch->instance));
   ch->skinning[5] = 1.0f;
