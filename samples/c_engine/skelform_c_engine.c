@@ -127,6 +127,12 @@ static void mat4_mul(float* out, const float* a, const float* b) {
   memcpy(out, r, sizeof r);
 }
 
+static void cross3(float* out, const float* a, const float* b) {
+  out[0] = a[1] * b[2] - a[2] * b[1];
+  out[1] = a[2] * b[0] - a[0] * b[2];
+  out[2] = a[0] * b[1] - a[1] * b[0];
+}
+
 /* Inverse of an affine matrix [A t; 0 1]: rows of A^-1 are the cross products of A's columns
  * over det(A), and the translation is -A^-1 t. Returns 0 when A is singular. */
 static int mat4_affine_inverse(float* out, const float* m) {
@@ -135,9 +141,9 @@ static int mat4_affine_inverse(float* out, const float* m) {
   const float* c2 = m + 8;
   float rows[3][3], det;
   int r, k;
-  rows[0][0] = c1[1] * c2[2] - c1[2] * c2[1], rows[0][1] = c1[2] * c2[0] - c1[0] * c2[2], rows[0][2] = c1[0] * c2[1] - c1[1] * c2[0];
-  rows[1][0] = c2[1] * c0[2] - c2[2] * c0[1], rows[1][1] = c2[2] * c0[0] - c2[0] * c0[2], rows[1][2] = c2[0] * c0[1] - c2[1] * c0[0];
-  rows[2][0] = c0[1] * c1[2] - c0[2] * c1[1], rows[2][1] = c0[2] * c1[0] - c0[0] * c1[2], rows[2][2] = c0[0] * c1[1] - c0[1] * c1[0];
+  cross3(rows[0], c1, c2);
+  cross3(rows[1], c2, c0);
+  cross3(rows[2], c0, c1);
   det = c0[0] * rows[0][0] + c0[1] * rows[0][1] + c0[2] * rows[0][2];
   if (!(fabsf(det) > 1e-12f)) return 0;
   for (r = 0; r < 3; ++r) {
