@@ -227,7 +227,7 @@ int glb_skin_read(const unsigned char* data, size_t size, int32_t skin_index, co
       bytes = NULL;
     }
     if (!view || !bytes || accessor_offset < 0 || view_offset < 0 ||
-        view_length < 0 || stride < 64 || (size_t)view_offset + (size_t)view_length > byte_count ||
+        view_length < 0 || stride < 64 || stride > view_length || (size_t)view_offset + (size_t)view_length > byte_count ||
         (size_t)accessor_offset + (size_t)(n - 1) * (size_t)stride + 64 > (size_t)view_length)
       FAIL("inverseBindMatrices: not inside buffer %ld", buffer_index);
     /* glTF is little-endian, like every platform this example targets. */
