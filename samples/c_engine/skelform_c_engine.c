@@ -414,6 +414,18 @@ int main(int argc, char** argv) {
     goto done;
   }
 
+  {
+    uint32_t j, roots = 0, depth, max_depth = 0;
+    for (j = 0; j < skin.joint_count; ++j) {
+      int32_t k = skin.parent[j];
+      for (depth = 0; k >= 0; k = skin.parent[k]) ++depth;
+      roots += skin.parent[j] < 0;
+      if (depth > max_depth) max_depth = depth;
+    }
+    printf("skin %d: %u joints, %u root(s), hierarchy depth %u\n", (int)info.skin, (unsigned)skin.joint_count,
+           (unsigned)roots, (unsigned)max_depth);
+  }
+
   /* 3. Several characters share the asset; each has its own instance and buffers. */
   for (c = 0; c < CHARACTER_COUNT; ++c) {
     character* ch = &characters[c];
@@ -428,7 +440,7 @@ int main(int argc, char** argv) {
     memset(ch->vertices, 0, info.vertex_count * sizeof *ch->vertices);
     for (i = 0; i < info.vertex_count; ++i) ch->vertices[i].uv[0] = ch->vertices[i].uv[1] = UV_SENTINEL;
     /* At amplitude 0 the pose is the bind pose: every skinning matrix must be the identity,
-     * which checks the hierarchy and inverse bind matrices read from the file. */
+     * which checks the matrix code (affine inverse, products, parents before children). */
     compute_joint_matrices(&skin, bind_local, 0.0f, 0.0f, ch->phase, ch->speed, ch->joint_world, ch->skinning);
     for (i = 0; i < 16 * info.joint_count; ++i)
       if (fabsf(ch->skinning[i] - (i % 16 % 5 == 0 ? 1.0f : 0.0f)) > 1e-3f) {

@@ -5,6 +5,7 @@
 #   positions, normals not of unit length, bytes outside the written streams touched, an
 #   error path that did not return its code, a bind pose that does not give identity
 #   skinning matrices);
+# - the joint hierarchy the example's GLB reader found (count, roots, depth) is the model's;
 # - every deliberate error path printed with its expected code;
 # - "allocations outstanding: 0" and "all positions finite";
 # - the procedural pose really bends the model: the boxes reach beyond the rest pose's;
@@ -24,6 +25,7 @@ case "$MODE" in
     "$4" "$WORK/capsule.glb" || { echo "FAIL: writing the procedural capsule"; exit 1; }
     MODEL=$WORK/capsule.glb
     AXIS=y REST_MAX=0.25  # capsule radius 0.25 about the z axis; the sphere (r 0.15) is inside that
+    SKIN="2 joints, 1 root(s), hierarchy depth 1"
     BENT_MAX=0.3          # the tip joint bends about x by up to 0.35 rad: the sphere at z 1.1 moves ~0.38 in y
     ;;
   cesiumman)
@@ -35,6 +37,7 @@ case "$MODE" in
     fi
     rm -rf "$WORK" && mkdir -p "$WORK" || exit 1
     AXIS=x REST_MAX=0.181 # CesiumMan at bind (z up, arms along y): x in [-0.131, 0.181]
+    SKIN="19 joints, 1 root(s), hierarchy depth 5"   # CesiumMan.glb's skin, read independently
     BENT_MAX=0.25         # bending its joints about their local x axes swings it forward, past 0.3
     ;;
   *) echo "usage: c_engine_test.sh capsule|cesiumman ..."; exit 2 ;;
@@ -45,6 +48,7 @@ esac
 code=$?
 cat "$WORK/stdout"
 [ "$code" -eq 0 ] || fail "exit status $code: $(cat "$WORK/stderr")"
+grep -q "^skin 0: $SKIN\$" "$WORK/stdout" || fail "the joint hierarchy read is not '$SKIN'"
 grep -q "allocations outstanding: 0 (0 bytes)" "$WORK/stdout" || fail "allocations outstanding"
 grep -q "^output check: 0 .*all positions finite" "$WORK/stdout" || fail "output check"
 [ "$(grep -c '^  frame ' "$WORK/stdout")" -eq 12 ] || fail "not 12 frame lines"
