@@ -591,8 +591,10 @@ float fair_run(const FairingTopology& topology, const glm::vec3* skeletal, const
     return -1.0f;
   if (vertex_count == 0) return 0.0f;
   const uint32_t iterations = params.iterations == 0 ? kDefaultIterations : params.iterations;
-  const float fold = params.fold_step > 0.0f ? params.fold_step : (params.semi_implicit ? 0.5f : 0.2f);
-  const float intersect = params.intersection_step > 0.0f ? params.intersection_step : 0.3f;
+  const float fold = params.fold_step > 0.0f
+                         ? params.fold_step
+                         : (params.semi_implicit ? kDefaultFoldStepSemiImplicit : kDefaultFoldStepExplicit);
+  const float intersect = params.intersection_step > 0.0f ? params.intersection_step : kDefaultIntersectionStep;
 
   glm::vec3 lo(std::numeric_limits<float>::max()), hi(-std::numeric_limits<float>::max());
   for (size_t v = 0; v < vertex_count; ++v)

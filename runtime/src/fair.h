@@ -56,6 +56,11 @@ struct FairingTopology {
 FairingTopology build_fairing_topology(const uint32_t* triangle_indices, size_t triangle_count,
                                        size_t vertex_count, const AllocatorRef& allocator);
 
+// Default dimensionless steps (FairingParams: 0 = these).
+constexpr float kDefaultFoldStepExplicit = 0.2f;
+constexpr float kDefaultFoldStepSemiImplicit = 0.5f;
+constexpr float kDefaultIntersectionStep = 0.3f;
+
 // Parameters of one fair_run(). Zero means the documented default (so a zero-initialised
 // struct is the recommended setting), except the two booleans.
 struct FairingParams {

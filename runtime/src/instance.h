@@ -92,6 +92,8 @@ constexpr uint32_t kMaxFairingIterations = 1000;   // per evaluation, incrementa
 constexpr uint32_t kDefaultFairingIterations = 2;  // per incremental evaluation
 constexpr uint32_t kConvergenceIterations = 64;    // cap from rest or after a pose jump
 constexpr float kConvergedResidual = 1e-5f;        // of the diagonal: converged
+constexpr uint32_t kAnnealAfter = 16;              // converging: full steps for this many iterations,
+constexpr float kAnnealRate = 0.85f;               // then steps × this per iteration
 constexpr float kPoseJumpShape = 0.25f;  // change of a vertex's local shape, in edge lengths, that is a pose jump
 
 struct FairStageOptions {
@@ -153,6 +155,7 @@ struct sf_instance {
   skelform::runtime::Array<glm::vec3> fairing_shape;  // U(M) per vertex in its frame (pose-jump test)
   skelform::runtime::Array<uint8_t> fairing_fixed;    // handle driver: vertices kept out of the fairing
   bool has_fairing_offset = false;
+  float fairing_gain = 1.0f;  // step scale: halves per evaluation while the pose is held
   skelform::runtime::Driver fairing_driver = skelform::runtime::Driver::skin;  // of the stored correction
   uint32_t last_fairing_iterations = 0;
   float last_fairing_residual = 0.0f;
