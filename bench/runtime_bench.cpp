@@ -1,15 +1,19 @@
 // skelform-bench: per-frame cost (DESIGN.md "Metrics"): wall time of one evaluation on one
 // core, in one process, on the same dense meshes and poses, for
-//   skelform    sf_instance_evaluate with default options (incremental), then sf_instance_write
-//               of positions and normals for every primitive
+//   skelform    sf_instance_evaluate with default options (incremental, fairing at its default
+//               budget), then sf_instance_write of positions and normals for every primitive
+//   skelform_unfaired  the same with fairing off (SF_FAIR_OFF): the difference is the
+//               fairing's share
 //   lbs, dqs    the runtime's baselines (SF_METHOD_LBS / SF_METHOD_DQS), same calls
 //   delta_mush  Delta Mush with 10 smoothing iterations (bench/delta_mush.h), positions only
 // on CesiumMan (3,273 vertices) and CesiumMan Loop-subdivided twice (~75K triangles), posed by
-// CesiumMan's own animation sampled at kPoseCount times (samples/common/gltf_animation.h).
+// CesiumMan's own animation sampled at 30 fps, frame after frame as a game plays it, wrapping
+// around at the end (samples/common/gltf_animation.h).
 //
 //   skelform-bench [Google Benchmark flags]     Google Benchmark tables
 //   skelform-bench --json [--smoke] [--cpu]     one JSON line per mesh:
-//     {"mesh": name, "vertices": n, "ms": {"skelform": .., "lbs": .., "dqs": .., "delta_mush": ..}}
+//     {"mesh": name, "vertices": n, "ms": {"skelform": .., "skelform_unfaired": .., "lbs": .., "dqs": ..,
+//      "delta_mush": ..}}
 //     each figure the median of timed evaluations (--smoke: a handful, for CI); wall time, or
 //     with --cpu the thread's CPU time (the fairer figure on a loaded machine)
 //
@@ -40,14 +44,16 @@ namespace {
 
 using skelform::bench::DeltaMush;
 
-constexpr int kPoseCount = 8;
+constexpr double kFramesPerSecond = 30.0;
 
-enum class Method { skelform, lbs, dqs, delta_mush };
-constexpr std::array<Method, 4> kMethods = {Method::skelform, Method::lbs, Method::dqs, Method::delta_mush};
+enum class Method { skelform, skelform_unfaired, lbs, dqs, delta_mush };
+constexpr std::array<Method, 5> kMethods = {Method::skelform, Method::skelform_unfaired, Method::lbs, Method::dqs,
+                                            Method::delta_mush};
 
 const char* method_name(Method method) {
   switch (method) {
     case Method::skelform: return "skelform";
+    case Method::skelform_unfaired: return "skelform_unfaired";
     case Method::lbs: return "lbs";
     case Method::dqs: return "dqs";
     case Method::delta_mush: return "delta_mush";
@@ -89,14 +95,15 @@ class Scene {
     }
     positions_.resize(3 * size_t{info_.vertex_count});
     normals_.resize(3 * size_t{info_.vertex_count});
-    for (size_t m = 0; m < 3; ++m) check(sf_instance_create(asset_, 0, &instances_[m]), "sf_instance_create");
+    for (size_t m = 0; m < instances_.size(); ++m) check(sf_instance_create(asset_, 0, &instances_[m]), "sf_instance_create");
 
     // Poses: the original CesiumMan's animation (the subdivided file carries the same skin).
     const skelform::samples::GltfAnimation gltf = skelform::samples::GltfAnimation::load_file(unbaked);
     if (gltf.animations().empty()) throw std::runtime_error(unbaked + " has no animation");
     const skelform::samples::AnimationInfo& animation = gltf.animations()[0];
-    for (int i = 0; i < kPoseCount; ++i) {
-      const double time = animation.start + animation.duration() * (i + 0.5) / kPoseCount;
+    const int frames = static_cast<int>(animation.duration() * kFramesPerSecond) + 1;
+    for (int i = 0; i < frames; ++i) {
+      const double time = animation.start + i / kFramesPerSecond;
       poses_.push_back(gltf.joint_matrices(static_cast<size_t>(info_.skin), 0, time));
     }
 
@@ -144,6 +151,7 @@ class Scene {
           "sf_instance_set_joint_matrices", instance);
     sf_eval_options options{};  // defaults (fairing as the runtime ships it), incremental
     options.method = method == Method::lbs ? SF_METHOD_LBS : method == Method::dqs ? SF_METHOD_DQS : SF_METHOD_SKELFORM;
+    if (method == Method::skelform_unfaired) options.fairing_flags = SF_FAIR_OFF;
     check(sf_instance_evaluate(instance, &options), "sf_instance_evaluate", instance);
     for (uint32_t p = 0; p < primitives_.size(); ++p) {
       sf_vertex_output output{};
@@ -161,7 +169,7 @@ class Scene {
   sf_asset* asset_ = nullptr;
   sf_deformable_info info_{};
   std::vector<sf_primitive_info> primitives_;
-  std::array<sf_instance*, 3> instances_{};  // indexed by Method (skelform, lbs, dqs)
+  std::array<sf_instance*, 4> instances_{};  // indexed by Method (skelform, skelform_unfaired, lbs, dqs)
   std::vector<std::vector<float>> poses_;
   std::unique_ptr<DeltaMush> delta_mush_;
   std::vector<float> positions_, normals_;

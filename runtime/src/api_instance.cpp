@@ -130,7 +130,7 @@ sf_result evaluate(sf_instance& instance, const sf_eval_options& options) {
   if (options.flags & ~known_flags)
     return fail(&instance, SF_ERROR_INVALID_ARGUMENT, "sf_instance_evaluate: unknown flags 0x%x",
                 options.flags & ~known_flags);
-  const uint32_t known_fairing_flags = SF_FAIR_OFF | SF_FAIR_EXPLICIT;
+  const uint32_t known_fairing_flags = SF_FAIR_OFF | SF_FAIR_SEMI_IMPLICIT;
   if (options.fairing_flags & ~known_fairing_flags)
     return fail(&instance, SF_ERROR_INVALID_ARGUMENT, "sf_instance_evaluate: unknown fairing_flags 0x%x",
                 options.fairing_flags & ~known_fairing_flags);
@@ -195,7 +195,7 @@ sf_result evaluate(sf_instance& instance, const sf_eval_options& options) {
     FairStageOptions fairing;
     fairing.params.fold_flow = (options.fairing_flags & SF_FAIR_NO_FOLD_FLOW) == 0;
     fairing.params.intersection_flow = (options.fairing_flags & SF_FAIR_NO_INTERSECTION_FLOW) == 0;
-    fairing.params.semi_implicit = (options.fairing_flags & SF_FAIR_EXPLICIT) == 0;
+    fairing.params.semi_implicit = (options.fairing_flags & SF_FAIR_SEMI_IMPLICIT) != 0;
     fairing.params.iterations = options.fairing_iterations;
     fairing.params.fold_step = options.fairing_step;
     fairing.params.intersection_step = options.intersection_step;

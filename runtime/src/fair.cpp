@@ -343,7 +343,8 @@ FieldValue field_at(const Grid& grid, const glm::vec3& x, const glm::vec3* skele
 
 // One step of flow (5); returns the largest vertex motion.
 float intersection_step(const FairingTopology& topo, const Grid& grid, const glm::vec3* skeletal, const float* radius,
-                        glm::vec3* x, float step, bool semi_implicit, const Targets& targets, FairingWorkspace& ws) {
+                        glm::vec3* x, float step, bool semi_implicit, bool refresh_field, const Targets& targets,
+                        FairingWorkspace& ws) {
   const uint32_t vertex_count = topo.vertex_count;
   compute_umbrellas(topo, x, targets, ws);
 
@@ -354,7 +355,17 @@ float intersection_step(const FairingTopology& topo, const Grid& grid, const glm
     ws.smoothing_weight[v] = 0.0f;
     ws.force_direction[v] = glm::vec3(0.0f);
     if (is_fixed(topo, ws, v) || !finite(x[v])) continue;
-    const FieldValue field = field_at(grid, x[v], skeletal, radius, ws);
+    // The grid search once per fair_run() call; later iterations of the call follow the
+    // minimising ball found then (the vertices move a fraction of an edge per iteration).
+    FieldValue field;
+    if (refresh_field) {
+      field = field_at(grid, x[v], skeletal, radius, ws);
+      ws.minimiser[v] = field.minimiser;
+    } else if (ws.minimiser[v] != std::numeric_limits<uint32_t>::max()) {
+      const uint32_t s = ws.minimiser[v];
+      const glm::vec3 d = x[v] - skeletal[s];
+      field = {glm::dot(d, d) - radius[s] * radius[s], s};
+    }
     if (field.minimiser == std::numeric_limits<uint32_t>::max()) continue;
     const glm::vec3 gradient = 2.0f * (x[v] - skeletal[field.minimiser]);  // ∇f
     const float d_star = radius[field.minimiser];
@@ -579,6 +590,7 @@ FairingWorkspace make_fairing_workspace(const FairingTopology& topology, uint32_
   ws.target_umbrella.assign(n, glm::vec3(0.0f));
   ws.target_bi_umbrella.assign(n, glm::vec3(0.0f));
   ws.iteration_start.assign(n, glm::vec3(0.0f));
+  ws.minimiser.assign(n, std::numeric_limits<uint32_t>::max());
   return ws;
 }
 
@@ -623,7 +635,8 @@ float fair_run(const FairingTopology& topology, const glm::vec3* skeletal, const
     if (params.fold_flow)
       fold_step(topology, skeletal, radius, positions, fold, params.semi_implicit, targets, workspace);
     if (params.intersection_flow)
-      intersection_step(topology, grid, skeletal, radius, positions, intersect, params.semi_implicit, targets,
+      intersection_step(topology, grid, skeletal, radius, positions, intersect, params.semi_implicit, iteration == 0,
+                        targets,
                         workspace);
     float moved = 0.0f;
     for (size_t v = 0; v < vertex_count; ++v) {

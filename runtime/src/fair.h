@@ -96,7 +96,8 @@ struct FairingWorkspace {
         force_direction(CallbackAllocator<glm::vec3>(a)), cell_offsets(CallbackAllocator<uint32_t>(a)),
         cell_vertices(CallbackAllocator<uint32_t>(a)), cell_max_radius(CallbackAllocator<float>(a)),
         vertex_cell(CallbackAllocator<uint32_t>(a)), target_umbrella(CallbackAllocator<glm::vec3>(a)),
-        target_bi_umbrella(CallbackAllocator<glm::vec3>(a)), iteration_start(CallbackAllocator<glm::vec3>(a)) {}
+        target_bi_umbrella(CallbackAllocator<glm::vec3>(a)), iteration_start(CallbackAllocator<glm::vec3>(a)),
+        minimiser(CallbackAllocator<uint32_t>(a)) {}
 
   uint32_t vertex_count = 0;
   uint32_t triangle_count = 0;
@@ -116,6 +117,7 @@ struct FairingWorkspace {
   Array<glm::vec3> target_bi_umbrella;   // rest U², likewise
   Array<glm::vec3> iteration_start;      // positions before the last iteration (its net motion)
   const uint8_t* caller_fixed = nullptr; // FairingParams::fixed of the current run
+  Array<uint32_t> minimiser;             // flow (5)'s minimising skeletal vertex per vertex
 };
 
 // The flows measured from the rest pose (a departure from the paper, DESIGN.md notes): on a

@@ -33,12 +33,13 @@ void fair_stage(sf_instance& instance, const FairStageOptions& options) {
   fairing_frames(d.fairing_topology, skeletal, x, frames);
 
   // Pose jump: the local shape of M (each umbrella vector in its vertex's frame, in units of
-  // the vertex's mean edge length) changed by more than kPoseJumpShape somewhere since the
-  // last evaluation. Rigid motion leaves it unchanged; 30 fps animation changes it by a few
-  // hundredths; a teleport into another pose, a new animation or a switch of driver by more.
+  // the vertex's mean edge length) changed by more than kPoseJumpShape at more than
+  // kPoseJumpFraction of the vertices since the last evaluation. Rigid motion leaves it
+  // unchanged; 30 fps animation changes it at a few thin spots (fast legs); a teleport into
+  // another pose, a new animation or a switch of driver changes it over whole limbs.
   // The stored correction then belongs to another pose and is discarded.
   const FairingTopology& topo = d.fairing_topology;
-  float shape_change = 0.0f;
+  uint32_t changed = 0;  // vertices whose local shape changed by more than kPoseJumpShape
   for (uint32_t v = 0; v < n; ++v) {
     const uint32_t begin = topo.neighbour_offsets[v], end = topo.neighbour_offsets[v + 1];
     if (begin == end) continue;
@@ -51,11 +52,12 @@ void fair_stage(sf_instance& instance, const FairStageOptions& options) {
     const float count = static_cast<float>(end - begin);
     const glm::vec3 shape = glm::transpose(frames[v]) * (mean / count - x[v]) / std::max(edge / count, 1e-30f);
     const float change = glm::length(shape - instance.fairing_shape[v]);
-    if (std::isfinite(change)) shape_change = std::max(shape_change, change);
+    if (!(change <= kPoseJumpShape)) ++changed;  // NaN counts as changed
     instance.fairing_shape[v] = shape;
   }
   // A switch of driver (handles ↔ skin) is a jump too.
-  const bool warm = !options.from_rest && instance.has_fairing_offset && shape_change <= kPoseJumpShape &&
+  const bool jump = static_cast<float>(changed) > kPoseJumpFraction * static_cast<float>(n);
+  const bool warm = !options.from_rest && instance.has_fairing_offset && !jump &&
                     instance.fairing_driver == instance.driver;
   instance.fairing_driver = instance.driver;
   // Annealing. f is a minimum over balls and α a threshold rule, so the flows' right-hand
@@ -79,7 +81,6 @@ void fair_stage(sf_instance& instance, const FairStageOptions& options) {
   }
   const uint32_t budget = params.iterations == 0 ? kDefaultFairingIterations : params.iterations;
   const uint32_t limit = warm ? budget : std::max(budget, kConvergenceIterations);
-  params.iterations = 1;
   const float fold_step = params.fold_step > 0.0f ? params.fold_step
                           : params.semi_implicit  ? kDefaultFoldStepSemiImplicit
                                                   : kDefaultFoldStepExplicit;
@@ -87,18 +88,19 @@ void fair_stage(sf_instance& instance, const FairStageOptions& options) {
   float gain = instance.fairing_gain;
   uint32_t done = 0;
   float residual = 0.0f;
-  // Below this gain a step cannot move a float coordinate any more: stop iterating.
+  // Warm: the budget in one fair_run() call (one grid, one field search). Converging: calls of
+  // kConvergenceChunk iterations, stopping at the residual, annealed after kAnnealAfter.
+  // Below a gain of 1e-7 a step cannot move a float coordinate any more: nothing to run.
   while (done < limit && gain > 1e-7f) {
+    params.iterations = warm ? budget : std::min(kConvergenceChunk, limit - done);
     params.fold_step = fold_step * gain;
     params.intersection_step = intersection_step * gain;
     residual = fair_run(topo, skeletal, d.medial_radius.data(), x, n, params, instance.fairing, &d.fairing_rest,
                         frames);
-    ++done;
-    if (residual < 0.0f) break;  // size mismatch: cannot happen for an instance of this asset
-    if (!warm && residual < kConvergedResidual) break;
-    // Converging (from rest, after a jump): anneal after the first kAnnealAfter iterations,
-    // so the chatter dies out and the loop ends early instead of running to the cap.
-    if (!warm && done >= kAnnealAfter) gain *= kAnnealRate;
+    done += params.iterations;
+    if (residual < 0.0f || warm) break;  // (< 0: size mismatch, cannot happen for this asset)
+    if (residual < kConvergedResidual) break;
+    if (done >= kAnnealAfter) gain *= kAnnealRate;
   }
   instance.fairing_gain = gain;  // a held pose continues from the annealed steps
   instance.last_fairing_iterations = done;

@@ -89,11 +89,13 @@ void reconstruct_homotopy(const Deformable& d, const glm::vec3* rest_offset, con
 // and runs to convergence. Options already validated by the caller.
 constexpr uint32_t kMaxIntersectionGrid = 32;     // workspace grid per instance (32³ cells)
 constexpr uint32_t kMaxFairingIterations = 1000;   // per evaluation, incremental budget
-constexpr uint32_t kDefaultFairingIterations = 2;  // per incremental evaluation
+constexpr uint32_t kDefaultFairingIterations = 1;  // per incremental evaluation
 constexpr uint32_t kConvergenceIterations = 64;    // cap from rest or after a pose jump
 constexpr float kConvergedResidual = 1e-5f;        // of the diagonal: converged
+constexpr uint32_t kConvergenceChunk = 8;          // converging: iterations per fair_run() call
 constexpr uint32_t kAnnealAfter = 16;              // converging: full steps for this many iterations,
-constexpr float kAnnealRate = 0.85f;               // then steps × this per iteration
+constexpr float kAnnealRate = 0.3f;                // then steps × this per chunk
+constexpr float kPoseJumpFraction = 0.02f;  // of the control vertices: a pose jump
 constexpr float kPoseJumpShape = 0.25f;  // change of a vertex's local shape, in edge lengths, that is a pose jump
 
 struct FairStageOptions {

@@ -257,7 +257,8 @@ typedef enum sf_reconstruction {
 #define SF_FAIR_NO_FOLD_FLOW 0x1u         /* skip flow (4): folds and protrusions */
 #define SF_FAIR_NO_INTERSECTION_FLOW 0x2u /* skip flow (5): self-intersections */
 #define SF_FAIR_OFF 0x3u                  /* no fairing: the reconstruction is refined as it is */
-#define SF_FAIR_EXPLICIT 0x4u             /* the paper's explicit steps instead of semi-implicit ones */
+#define SF_FAIR_SEMI_IMPLICIT 0x4u        /* semi-implicit bilaplacian steps (paper sec. 5) instead of the
+                                           * paper's explicit ones: no better here, and slower per iteration */
 
 /* Evaluation options; a zeroed struct (or NULL) means the documented defaults. Fields are
  * only appended in later versions. */
@@ -269,9 +270,9 @@ typedef struct sf_eval_options {
   uint32_t flags;               /* SF_EVAL_* bits */
   /* Fairing (paper eqs. (4) and (5)), SF_METHOD_SKELFORM only; docs/runtime-api.md "Fairing".
    * Zero in every field = the defaults. */
-  uint32_t fairing_flags;      /* SF_FAIR_* bits; 0 = both flows, semi-implicit steps */
+  uint32_t fairing_flags;      /* SF_FAIR_* bits; 0 = both flows, explicit steps */
   uint32_t fairing_iterations; /* iterations per incremental evaluation; 0 = 2 */
-  float fairing_step;          /* τ of flow (4), dimensionless; 0 = 0.5 (semi-implicit) / 0.2 (explicit) */
+  float fairing_step;          /* τ of flow (4), dimensionless; 0 = 0.2 (explicit) / 0.5 (semi-implicit) */
   float intersection_step;     /* τ of flow (5), dimensionless; 0 = 0.3 */
   uint32_t intersection_grid;  /* cells per axis of flow (5)'s grid, 1 .. 32; 0 = 20 (the paper's) */
 } sf_eval_options;
