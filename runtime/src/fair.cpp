@@ -358,10 +358,28 @@ float intersection_step(const FairingTopology& topo, const Grid& grid, const glm
     // The grid search once per fair_run() call; later iterations of the call follow the
     // minimising ball found then (the vertices move a fraction of an edge per iteration).
     FieldValue field;
-    if (refresh_field) {
+    constexpr uint32_t none = std::numeric_limits<uint32_t>::max();
+    const bool search = refresh_field && (ws.search_stride <= 1 || ws.minimiser[v] == none ||
+                                          (ws.search_phase + v) % ws.search_stride == 0);
+    if (search) {
       field = field_at(grid, x[v], skeletal, radius, ws);
       ws.minimiser[v] = field.minimiser;
-    } else if (ws.minimiser[v] != std::numeric_limits<uint32_t>::max()) {
+    } else if (refresh_field) {
+      // Tracking (FairingParams::search_stride): the best of the vertex's own ball, its last
+      // minimiser and its neighbours' last minimisers; a minimum that moves along the surface
+      // is followed, a new one is found at the vertex's next full search.
+      auto consider = [&](uint32_t s) {
+        if (s == none || !finite(skeletal[s]) || !std::isfinite(radius[s])) return;
+        const glm::vec3 d = x[v] - skeletal[s];
+        const float g = glm::dot(d, d) - radius[s] * radius[s];
+        if (g < field.f || (g == field.f && s < field.minimiser)) field = {g, s};
+      };
+      consider(v);
+      consider(ws.minimiser[v]);
+      for (uint32_t k = topo.neighbour_offsets[v]; k < topo.neighbour_offsets[v + 1]; ++k)
+        consider(ws.minimiser[topo.neighbours[k]]);
+      ws.next_minimiser[v] = field.minimiser;
+    } else if (ws.minimiser[v] != none) {
       const uint32_t s = ws.minimiser[v];
       const glm::vec3 d = x[v] - skeletal[s];
       field = {glm::dot(d, d) - radius[s] * radius[s], s};
@@ -381,6 +399,12 @@ float intersection_step(const FairingTopology& topo, const Grid& grid, const glm
       largest_gap = std::max(largest_gap, ws.smoothing_weight[v]);
     }
   }
+  if (refresh_field && ws.search_stride > 1)  // tracked minimisers, read from the old ones above
+    for (uint32_t v = 0; v < vertex_count; ++v)
+      if (ws.next_minimiser[v] != std::numeric_limits<uint32_t>::max()) {
+        ws.minimiser[v] = ws.next_minimiser[v];
+        ws.next_minimiser[v] = std::numeric_limits<uint32_t>::max();
+      }
   // W(M) = |f(M) − g(M, S)| / max_M |f − g|.
   for (uint32_t v = 0; v < vertex_count; ++v)
     ws.smoothing_weight[v] = largest_gap > 0.0f ? ws.smoothing_weight[v] / largest_gap : 0.0f;
@@ -591,6 +615,7 @@ FairingWorkspace make_fairing_workspace(const FairingTopology& topology, uint32_
   ws.target_bi_umbrella.assign(n, glm::vec3(0.0f));
   ws.iteration_start.assign(n, glm::vec3(0.0f));
   ws.minimiser.assign(n, std::numeric_limits<uint32_t>::max());
+  ws.next_minimiser.assign(n, std::numeric_limits<uint32_t>::max());
   return ws;
 }
 
@@ -614,6 +639,8 @@ float fair_run(const FairingTopology& topology, const glm::vec3* skeletal, const
   const float diagonal = lo.x <= hi.x ? glm::length(hi - lo) : 0.0f;
 
   workspace.caller_fixed = params.fixed;
+  workspace.search_stride = params.search_stride;
+  if (params.search_stride > 1) workspace.search_phase = (workspace.search_phase + 1) % params.search_stride;
   Targets targets;
   if (rest && frames) {
     if (rest->umbrella.size() != vertex_count || rest->triangle_level.size() != topology.triangle_count) return -1.0f;

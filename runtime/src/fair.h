@@ -82,6 +82,11 @@ struct FairingParams {
   // Cells per axis of flow (5)'s grid over the bounding box of skeleton and mesh. 0 = 20
   // (the paper's 20×20×20). Must not exceed the workspace's grid_size.
   uint32_t grid_size = 0;
+  // Flow (5)'s grid search per vertex: 0 or 1 = every call (the paper); K > 1 = each vertex
+  // searches the grid at one call in K (staggered by vertex index) and otherwise tracks its
+  // minimiser among its own, its last and its neighbours' last minimising balls. For
+  // warm-started runs, where the field changes little between calls.
+  uint32_t search_stride = 0;
   // Optional, per vertex: non-zero = keep this vertex where it is (e.g. the handle driver's
   // pinned vertices), in addition to open borders. Null = none.
   const uint8_t* fixed = nullptr;
@@ -97,7 +102,7 @@ struct FairingWorkspace {
         cell_vertices(CallbackAllocator<uint32_t>(a)), cell_max_radius(CallbackAllocator<float>(a)),
         vertex_cell(CallbackAllocator<uint32_t>(a)), target_umbrella(CallbackAllocator<glm::vec3>(a)),
         target_bi_umbrella(CallbackAllocator<glm::vec3>(a)), iteration_start(CallbackAllocator<glm::vec3>(a)),
-        minimiser(CallbackAllocator<uint32_t>(a)) {}
+        minimiser(CallbackAllocator<uint32_t>(a)), next_minimiser(CallbackAllocator<uint32_t>(a)) {}
 
   uint32_t vertex_count = 0;
   uint32_t triangle_count = 0;
@@ -118,6 +123,9 @@ struct FairingWorkspace {
   Array<glm::vec3> iteration_start;      // positions before the last iteration (its net motion)
   const uint8_t* caller_fixed = nullptr; // FairingParams::fixed of the current run
   Array<uint32_t> minimiser;             // flow (5)'s minimising skeletal vertex per vertex
+  Array<uint32_t> next_minimiser;        // tracked minimisers of this call (then moved to minimiser)
+  uint32_t search_stride = 0;            // FairingParams::search_stride of the current run
+  uint32_t search_phase = 0;             // which vertices search the grid at this call
 };
 
 // The flows measured from the rest pose (a departure from the paper, DESIGN.md notes): on a

@@ -93,6 +93,7 @@ void fair_stage(sf_instance& instance, const FairStageOptions& options) {
   // Below a gain of 1e-7 a step cannot move a float coordinate any more: nothing to run.
   while (done < limit && gain > 1e-7f) {
     params.iterations = warm ? budget : std::min(kConvergenceChunk, limit - done);
+    params.search_stride = warm ? kSearchStride : 1;  // a fresh start searches everywhere
     params.fold_step = fold_step * gain;
     params.intersection_step = intersection_step * gain;
     residual = fair_run(topo, skeletal, d.medial_radius.data(), x, n, params, instance.fairing, &d.fairing_rest,

@@ -92,6 +92,7 @@ constexpr uint32_t kMaxFairingIterations = 1000;   // per evaluation, incrementa
 constexpr uint32_t kDefaultFairingIterations = 1;  // per incremental evaluation
 constexpr uint32_t kConvergenceIterations = 64;    // cap from rest or after a pose jump
 constexpr float kConvergedResidual = 1e-5f;        // of the diagonal: converged
+constexpr uint32_t kSearchStride = 8;              // warm: each vertex searches flow (5)'s grid every 8th evaluation
 constexpr uint32_t kConvergenceChunk = 8;          // converging: iterations per fair_run() call
 constexpr uint32_t kAnnealAfter = 16;              // converging: full steps for this many iterations,
 constexpr float kAnnealRate = 0.3f;                // then steps × this per chunk
