@@ -47,6 +47,7 @@ struct Targets {
   const float* triangle_level = nullptr;
   const float* field = nullptr;
   const float* gap = nullptr;
+  const glm::vec3* reference_bi_umbrella = nullptr;  // U² of the unfaired reconstruction
 };
 
 // Never moved: open-border and isolated vertices, and the caller's FairingParams::fixed.
@@ -79,6 +80,7 @@ void compute_umbrellas(const FairingTopology& topo, const glm::vec3* x, const Ta
   if (!targets.umbrella) return;
   for (uint32_t v = 0; v < topo.vertex_count; ++v) {
     ws.umbrella[v] -= targets.umbrella[v];
+    if (targets.reference_bi_umbrella) ws.bi_reference[v] = ws.bi_umbrella[v] - targets.reference_bi_umbrella[v];
     ws.bi_umbrella[v] -= targets.bi_umbrella[v];
   }
 }
@@ -200,7 +202,11 @@ float fold_step(const FairingTopology& topo, const glm::vec3* skeletal, const fl
     ws.smoothing_weight[v] = alpha;
     ws.force_direction[v] = direction;
     // (4): ∂M/∂t = −αΔ²M − F − V.
-    ws.displacement[v] = semi_implicit ? -step * force : -step * (alpha * bi + force + tangential);
+    // With a smoothing reference (explicit steps), the α term smooths the correction x − M
+    // (measured: rest-shape smoothing there pushes the inner side of tight bends into
+    // itself on coarse meshes), V keeps restoring the rest shape along the surface.
+    const glm::vec3& smooth = targets.reference_bi_umbrella ? ws.bi_reference[v] : bi;
+    ws.displacement[v] = semi_implicit ? -step * force : -step * (alpha * smooth + force + tangential);
   }
 
   if (!semi_implicit) return apply_displacements(topo, x, ws);  // Jacobi: all from one state
@@ -412,7 +418,8 @@ float intersection_step(const FairingTopology& topo, const Grid& grid, const glm
   if (!semi_implicit) {
     // (5): ∂M/∂t = −f∇f − WΔ²M.
     for (uint32_t v = 0; v < vertex_count; ++v)
-      ws.displacement[v] -= step * ws.smoothing_weight[v] * ws.bi_umbrella[v];
+      ws.displacement[v] -=
+          step * ws.smoothing_weight[v] * (targets.reference_bi_umbrella ? ws.bi_reference[v] : ws.bi_umbrella[v]);
     return apply_displacements(topo, x, ws);
   }
   for (uint32_t v = 0; v < vertex_count; ++v) ws.start_positions[v] = x[v] + ws.displacement[v];  // x − τG
@@ -616,6 +623,8 @@ FairingWorkspace make_fairing_workspace(const FairingTopology& topology, uint32_
   ws.iteration_start.assign(n, glm::vec3(0.0f));
   ws.minimiser.assign(n, std::numeric_limits<uint32_t>::max());
   ws.next_minimiser.assign(n, std::numeric_limits<uint32_t>::max());
+  ws.reference_bi.assign(n, glm::vec3(0.0f));
+  ws.bi_reference.assign(n, glm::vec3(0.0f));
   return ws;
 }
 
@@ -644,12 +653,21 @@ float fair_run(const FairingTopology& topology, const glm::vec3* skeletal, const
   Targets targets;
   if (rest && frames) {
     if (rest->umbrella.size() != vertex_count || rest->triangle_level.size() != topology.triangle_count) return -1.0f;
+    if (params.smoothing_reference) {
+      // U² of the reference surface (the unfaired reconstruction M): smoothing against it
+      // smooths the correction x − M itself.
+      for (size_t v = 0; v < vertex_count; ++v)
+        workspace.target_umbrella[v] = umbrella_at(topology, params.smoothing_reference, uint32_t(v));
+      for (size_t v = 0; v < vertex_count; ++v)
+        workspace.reference_bi[v] = umbrella_at(topology, workspace.target_umbrella.data(), uint32_t(v));
+    }
     for (size_t v = 0; v < vertex_count; ++v) {
       workspace.target_umbrella[v] = frames[v] * rest->umbrella[v];
       workspace.target_bi_umbrella[v] = frames[v] * rest->bi_umbrella[v];
     }
     targets = {workspace.target_umbrella.data(), workspace.target_bi_umbrella.data(), rest->triangle_level.data(),
-               rest->field.data(), rest->gap.data()};
+               rest->field.data(), rest->gap.data(),
+               params.smoothing_reference ? workspace.reference_bi.data() : nullptr};
   }
 
   Grid grid;
@@ -680,7 +698,7 @@ float fair_run(const FairingTopology& topology, const glm::vec3* skeletal, const
 namespace skelform::runtime {
 
 void fairing_frames(const FairingTopology& topology, const glm::vec3* skeletal, const glm::vec3* positions,
-                    glm::mat3* frames) {
+                    glm::mat3* frames, const FairingRest* rest) {
   for (uint32_t v = 0; v < topology.vertex_count; ++v) {
     glm::vec3 normal = positions[v] - skeletal[v];
     float length = glm::length(normal);
@@ -710,7 +728,25 @@ void fairing_frames(const FairingTopology& topology, const glm::vec3* skeletal, 
       const glm::vec3 axis = std::fabs(normal.x) < 0.9f ? glm::vec3(1, 0, 0) : glm::vec3(0, 1, 0);
       tangent = glm::normalize(axis - glm::dot(axis, normal) * normal);
     }
-    frames[v] = glm::mat3(tangent, glm::cross(normal, tangent), normal);
+    glm::vec3 bitangent = glm::cross(normal, tangent);
+    if (rest && rest->edge_2d.size() == topology.neighbours.size()) {
+      float dot = 0.0f, cross = 0.0f;
+      for (uint32_t k = topology.neighbour_offsets[v]; k < topology.neighbour_offsets[v + 1]; ++k) {
+        const glm::vec3 edge = positions[topology.neighbours[k]] - positions[v];
+        const glm::vec2 now(glm::dot(edge, tangent), glm::dot(edge, bitangent));
+        const glm::vec2 then = rest->edge_2d[k];
+        dot += glm::dot(then, now);
+        cross += then.x * now.y - then.y * now.x;
+      }
+      const float angle = std::atan2(cross, dot);
+      if (std::isfinite(angle) && (dot != 0.0f || cross != 0.0f)) {
+        const float c = std::cos(angle), s = std::sin(angle);
+        const glm::vec3 turned = c * tangent + s * bitangent;
+        bitangent = -s * tangent + c * bitangent;
+        tangent = turned;
+      }
+    }
+    frames[v] = glm::mat3(tangent, bitangent, normal);
   }
 }
 
@@ -722,6 +758,12 @@ FairingRest make_fairing_rest(const FairingTopology& topology, const glm::vec3* 
   Array<glm::mat3> frames(n, glm::mat3(1.0f), CallbackAllocator<glm::mat3>(allocator));
   fairing_frames(topology, skeletal, positions, frames.data());
   compute_umbrellas(topology, positions, Targets{}, ws);
+  rest.edge_2d.resize(topology.neighbours.size());
+  for (uint32_t v = 0; v < n; ++v)
+    for (uint32_t k = topology.neighbour_offsets[v]; k < topology.neighbour_offsets[v + 1]; ++k) {
+      const glm::vec3 edge = positions[topology.neighbours[k]] - positions[v];
+      rest.edge_2d[k] = glm::vec2(glm::dot(edge, frames[v][0]), glm::dot(edge, frames[v][1]));
+    }
   rest.umbrella.resize(n);
   rest.bi_umbrella.resize(n);
   for (uint32_t v = 0; v < n; ++v) {

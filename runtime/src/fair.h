@@ -20,6 +20,7 @@
 #include "memory.h"
 
 #include <glm/mat3x3.hpp>
+#include <glm/vec2.hpp>
 #include <glm/vec3.hpp>
 
 #include <cstddef>
@@ -87,6 +88,12 @@ struct FairingParams {
   // minimiser among its own, its last and its neighbours' last minimising balls. For
   // warm-started runs, where the field changes little between calls.
   uint32_t search_stride = 0;
+  // With FairingRest and explicit steps: a surface indexed like the positions (normally the
+  // unfaired reconstruction M). Flow (4)'s α term and flow (5)'s W term then smooth the
+  // correction x − M (their bilaplacian is taken relative to the reference's), while V keeps
+  // restoring the rest shape along the surface. Null: every bilaplacian relative to the rest
+  // shape turned by the local frames.
+  const glm::vec3* smoothing_reference = nullptr;
   // Optional, per vertex: non-zero = keep this vertex where it is (e.g. the handle driver's
   // pinned vertices), in addition to open borders. Null = none.
   const uint8_t* fixed = nullptr;
@@ -102,7 +109,8 @@ struct FairingWorkspace {
         cell_vertices(CallbackAllocator<uint32_t>(a)), cell_max_radius(CallbackAllocator<float>(a)),
         vertex_cell(CallbackAllocator<uint32_t>(a)), target_umbrella(CallbackAllocator<glm::vec3>(a)),
         target_bi_umbrella(CallbackAllocator<glm::vec3>(a)), iteration_start(CallbackAllocator<glm::vec3>(a)),
-        minimiser(CallbackAllocator<uint32_t>(a)), next_minimiser(CallbackAllocator<uint32_t>(a)) {}
+        minimiser(CallbackAllocator<uint32_t>(a)), next_minimiser(CallbackAllocator<uint32_t>(a)),
+        reference_bi(CallbackAllocator<glm::vec3>(a)), bi_reference(CallbackAllocator<glm::vec3>(a)) {}
 
   uint32_t vertex_count = 0;
   uint32_t triangle_count = 0;
@@ -126,6 +134,8 @@ struct FairingWorkspace {
   Array<uint32_t> next_minimiser;        // tracked minimisers of this call (then moved to minimiser)
   uint32_t search_stride = 0;            // FairingParams::search_stride of the current run
   uint32_t search_phase = 0;             // which vertices search the grid at this call
+  Array<glm::vec3> reference_bi;         // U² of FairingParams::smoothing_reference
+  Array<glm::vec3> bi_reference;         // U²(x) − reference_bi
 };
 
 // The flows measured from the rest pose (a departure from the paper, DESIGN.md notes): on a
@@ -141,20 +151,25 @@ struct FairingRest {
   explicit FairingRest(const AllocatorRef& a)
       : umbrella(CallbackAllocator<glm::vec3>(a)), bi_umbrella(CallbackAllocator<glm::vec3>(a)),
         triangle_level(CallbackAllocator<float>(a)), field(CallbackAllocator<float>(a)),
-        gap(CallbackAllocator<float>(a)) {}
+        gap(CallbackAllocator<float>(a)), edge_2d(CallbackAllocator<glm::vec2>(a)) {}
   Array<glm::vec3> umbrella;     // U(M_rest) per vertex, in its rest local frame (fairing_frames)
   Array<glm::vec3> bi_umbrella;  // U²(M_rest) per vertex, in its rest local frame
   Array<float> triangle_level;   // E_T(C) of every triangle at rest
   Array<float> field;            // f(M_rest) per vertex (flow (5))
   Array<float> gap;              // |f − g|(M_rest) per vertex (flow (5)'s W numerator)
+  Array<glm::vec2> edge_2d;      // per one-ring entry (topology.neighbours): the rest edge in its
+                                 // vertex's rest frame (tangent, bitangent components)
 };
 
 // Orthonormal frame (columns: tangent, bitangent, normal) per vertex of the control mesh: the
 // normal along M − S (the reconstruction direction; the area-weighted normal where the
 // medial radius is 0), the tangent along the first one-ring edge made orthogonal to it. It
-// turns with the surface, so rest vectors stored in it follow a pose.
+// turns with the surface, so rest vectors stored in it follow a pose. With `rest`, the
+// tangent is then turned about the normal by the angle that best aligns the one-ring's
+// edges with their rest directions (a 2D Procrustes fit), so a sheared one-ring (a blend
+// zone) does not turn the frame with its first edge alone.
 void fairing_frames(const FairingTopology& topology, const glm::vec3* skeletal, const glm::vec3* positions,
-                    glm::mat3* frames);
+                    glm::mat3* frames, const struct FairingRest* rest = nullptr);
 
 // Rest targets of `topology` from the rest control mesh, skeletal mesh and radii. Allocates
 // (std::bad_alloc on failure); `workspace` is scratch.

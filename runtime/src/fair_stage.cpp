@@ -30,7 +30,7 @@ void fair_stage(sf_instance& instance, const FairStageOptions& options) {
   glm::vec3* x = instance.control.data();
   const glm::vec3* skeletal = instance.skeletal.data();
   glm::mat3* frames = instance.fairing_frames.data();
-  fairing_frames(d.fairing_topology, skeletal, x, frames);
+  fairing_frames(d.fairing_topology, skeletal, x, frames, &d.fairing_rest);
 
   // Pose jump: the local shape of M (each umbrella vector in its vertex's frame, in units of
   // the vertex's mean edge length) changed by more than kPoseJumpShape at more than
@@ -73,6 +73,8 @@ void fair_stage(sf_instance& instance, const FairStageOptions& options) {
     for (size_t v = 0; v < n; ++v) x[v] += frames[v] * instance.fairing_offset[v];
 
   FairingParams params = options.params;
+  // The α and W smoothing act on the correction (fair.h FairingParams::smoothing_reference).
+  params.smoothing_reference = instance.fairing_start.data();
   // The handle driver's pinned region stays at rest (paper Fig. 1): a skeletal vertex that the
   // displacement field left exactly in place keeps its control vertex out of the fairing.
   if (instance.driver == Driver::handles) {
