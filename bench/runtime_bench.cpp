@@ -4,6 +4,7 @@
 //               budget), then sf_instance_write of positions and normals for every primitive
 //   skelform_unfaired  the same with fairing off (SF_FAIR_OFF): the difference is the
 //               fairing's share
+//   skelform_semi_implicit  the same with the semi-implicit fairing steps (SF_FAIR_SEMI_IMPLICIT)
 //   lbs, dqs    the runtime's baselines (SF_METHOD_LBS / SF_METHOD_DQS), same calls
 //   delta_mush  Delta Mush with 10 smoothing iterations (bench/delta_mush.h), positions only
 // on CesiumMan (3,273 vertices) and CesiumMan Loop-subdivided twice (~75K triangles), posed by
@@ -12,8 +13,8 @@
 //
 //   skelform-bench [Google Benchmark flags]     Google Benchmark tables
 //   skelform-bench --json [--smoke] [--cpu]     one JSON line per mesh:
-//     {"mesh": name, "vertices": n, "ms": {"skelform": .., "skelform_unfaired": .., "lbs": .., "dqs": ..,
-//      "delta_mush": ..}}
+//     {"mesh": name, "vertices": n, "ms": {"skelform": .., "skelform_unfaired": ..,
+//      "skelform_semi_implicit": .., "lbs": .., "dqs": .., "delta_mush": ..}}
 //     each figure the median of timed evaluations (--smoke: a handful, for CI); wall time, or
 //     with --cpu the thread's CPU time (the fairer figure on a loaded machine)
 //
@@ -46,14 +47,15 @@ using skelform::bench::DeltaMush;
 
 constexpr double kFramesPerSecond = 30.0;
 
-enum class Method { skelform, skelform_unfaired, lbs, dqs, delta_mush };
-constexpr std::array<Method, 5> kMethods = {Method::skelform, Method::skelform_unfaired, Method::lbs, Method::dqs,
-                                            Method::delta_mush};
+enum class Method { skelform, skelform_unfaired, skelform_semi_implicit, lbs, dqs, delta_mush };
+constexpr std::array<Method, 6> kMethods = {Method::skelform, Method::skelform_unfaired, Method::skelform_semi_implicit,
+                                            Method::lbs, Method::dqs, Method::delta_mush};
 
 const char* method_name(Method method) {
   switch (method) {
     case Method::skelform: return "skelform";
     case Method::skelform_unfaired: return "skelform_unfaired";
+    case Method::skelform_semi_implicit: return "skelform_semi_implicit";
     case Method::lbs: return "lbs";
     case Method::dqs: return "dqs";
     case Method::delta_mush: return "delta_mush";
@@ -152,6 +154,7 @@ class Scene {
     sf_eval_options options{};  // defaults (fairing as the runtime ships it), incremental
     options.method = method == Method::lbs ? SF_METHOD_LBS : method == Method::dqs ? SF_METHOD_DQS : SF_METHOD_SKELFORM;
     if (method == Method::skelform_unfaired) options.fairing_flags = SF_FAIR_OFF;
+    if (method == Method::skelform_semi_implicit) options.fairing_flags = SF_FAIR_SEMI_IMPLICIT;
     check(sf_instance_evaluate(instance, &options), "sf_instance_evaluate", instance);
     for (uint32_t p = 0; p < primitives_.size(); ++p) {
       sf_vertex_output output{};
@@ -169,7 +172,7 @@ class Scene {
   sf_asset* asset_ = nullptr;
   sf_deformable_info info_{};
   std::vector<sf_primitive_info> primitives_;
-  std::array<sf_instance*, 4> instances_{};  // indexed by Method (skelform, skelform_unfaired, lbs, dqs)
+  std::array<sf_instance*, 5> instances_{};  // indexed by Method (every one but delta_mush)
   std::vector<std::vector<float>> poses_;
   std::unique_ptr<DeltaMush> delta_mush_;
   std::vector<float> positions_, normals_;

@@ -180,7 +180,8 @@ float fold_step(const FairingTopology& topo, const glm::vec3* skeletal, const fl
       if (glm::dot(ws.umbrella[topo.neighbours[k]], ws.umbrella[v]) < 0.0f) ++obtuse;
     // An umbrella below a thousandth of the edge length (relative to rest: the pose has not
     // changed the surface here) has no meaningful direction: no fold, α as for a smooth spot.
-    const bool negligible = glm::length(ws.umbrella[v]) < 1e-3f * mean_edge_length(topo, x, v);
+    const float edge = mean_edge_length(topo, x, v);
+    const bool negligible = glm::length(ws.umbrella[v]) < 1e-3f * edge;
     const float alpha =
         negligible || static_cast<float>(obtuse) < kObtuseFraction * static_cast<float>(end - begin) ? kAlphaSmooth : 0.0f;
 
@@ -193,7 +194,7 @@ float fold_step(const FairingTopology& topo, const glm::vec3* skeletal, const fl
     // rounding noise, and a V that turned with it would make a held pose jitter; the
     // projection fades out there instead (|direction| < 1).
     const float force_length = glm::length(force);
-    const float soft = 1e-3f * mean_edge_length(topo, x, v);
+    const float soft = 1e-3f * edge;
     const glm::vec3 direction = force_length > 0.0f ? force / std::max(force_length, soft) : glm::vec3(0.0f);
 
     // V = Δ²M − (Δ²M·F̂)F̂ (V = Δ²M where F = 0).
