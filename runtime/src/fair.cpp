@@ -739,9 +739,10 @@ void fairing_frames(const FairingTopology& topology, const glm::vec3* skeletal, 
         dot += glm::dot(then, now);
         cross += then.x * now.y - then.y * now.x;
       }
-      const float angle = std::atan2(cross, dot);
-      if (std::isfinite(angle) && (dot != 0.0f || cross != 0.0f)) {
-        const float c = std::cos(angle), s = std::sin(angle);
+      // cos and sin of the best angle, atan2(cross, dot), without trigonometry.
+      const float length = std::sqrt(dot * dot + cross * cross);
+      if (length > 0.0f && std::isfinite(length)) {
+        const float c = dot / length, s = cross / length;
         const glm::vec3 turned = c * tangent + s * bitangent;
         bitangent = -s * tangent + c * bitangent;
         tangent = turned;
