@@ -463,26 +463,6 @@ HullDistance ball_hull_distance(const glm::vec3& point, const glm::vec3* centres
       best_gradient = distance > 0.0 ? offset / distance : dvec3(0.0);
     }
   };
-  for (int i = 0; i < 3; ++i) consider_foot(c[i], r[i]);  // a vertex: the sphere itself
-
-  // Edges: the cone frustum of balls i and j. With s the arc length along the axis,
-  // φ(s) = sqrt((a − s)² + h²) − r_i − k s, k = (r_j − r_i)/L; φ'(s) = 0 at
-  // s* = a + k h / sqrt(1 − k²) when |k| < 1 (else one ball contains the other: a vertex wins).
-  for (int i = 0; i < 3; ++i) {
-    const int j = (i + 1) % 3;
-    const dvec3 edge = c[j] - c[i];
-    const double length = glm::length(edge);
-    if (!(length > 0.0)) continue;
-    const double k = (r[j] - r[i]) / length;
-    if (!(std::fabs(k) < 1.0)) continue;
-    const dvec3 axis = edge / length;
-    const dvec3 u = p - c[i];
-    const double a = glm::dot(u, axis);
-    const double h = glm::length(u - a * axis);
-    const double s = std::clamp(a + k * h / std::sqrt(1.0 - k * k), 0.0, length);
-    consider_foot(c[i] + s * axis, r[i] + k * s);
-  }
-
   // Interior (tangent-plane case): at a stationary b the unit n = (P − c(b))/|P − c(b)| obeys
   // n·c_i + r_i = const, i.e. n·e_1 = −δ_1, n·e_2 = −δ_2 (e_i = c_i − c_0, δ_i = r_i − r_0):
   // n = n₀ + σμ m with n₀ in the triangle's plane, m its unit normal, μ = sqrt(1 − |n₀|²), σ the
@@ -509,14 +489,35 @@ HullDistance ball_hull_distance(const glm::vec3& point, const glm::vec3* centres
       const double beta1 = (f1 * g22 - f2 * g12) / det;
       const double beta2 = (f2 * g11 - f1 * g12) / det;
       if (beta1 >= 0.0 && beta2 >= 0.0 && beta1 + beta2 <= 1.0) {
-        const double value = t - (r[0] + beta1 * d1 + beta2 * d2);
-        if (value < best) {
-          best = value;
-          best_gradient = n;
-        }
+        // φ is convex: a stationary point inside the triangle is its minimum, so the
+        // boundary candidates below need not be evaluated.
+        HullDistance result;
+        result.value = static_cast<float>(t - (r[0] + beta1 * d1 + beta2 * d2));
+        result.gradient = glm::vec3(n);
+        if (std::isfinite(result.value) && finite(result.gradient)) return result;
       }
     }
   }
+  for (int i = 0; i < 3; ++i) consider_foot(c[i], r[i]);  // a vertex: the sphere itself
+
+  // Edges: the cone frustum of balls i and j. With s the arc length along the axis,
+  // φ(s) = sqrt((a − s)² + h²) − r_i − k s, k = (r_j − r_i)/L; φ'(s) = 0 at
+  // s* = a + k h / sqrt(1 − k²) when |k| < 1 (else one ball contains the other: a vertex wins).
+  for (int i = 0; i < 3; ++i) {
+    const int j = (i + 1) % 3;
+    const dvec3 edge = c[j] - c[i];
+    const double length = glm::length(edge);
+    if (!(length > 0.0)) continue;
+    const double k = (r[j] - r[i]) / length;
+    if (!(std::fabs(k) < 1.0)) continue;
+    const dvec3 axis = edge / length;
+    const dvec3 u = p - c[i];
+    const double a = glm::dot(u, axis);
+    const double h = glm::length(u - a * axis);
+    const double s = std::clamp(a + k * h / std::sqrt(1.0 - k * k), 0.0, length);
+    consider_foot(c[i] + s * axis, r[i] + k * s);
+  }
+
   HullDistance result;
   result.value = std::isfinite(best) ? static_cast<float>(best) : 0.0f;
   result.gradient = std::isfinite(best) ? glm::vec3(best_gradient) : glm::vec3(0.0f);
