@@ -93,6 +93,12 @@ float mean_edge_length(const FairingTopology& topo, const glm::vec3* x, uint32_t
   return sum / static_cast<float>(end - begin);
 }
 
+// The vertex's mean edge length: at rest when the run has rest values (a constant scale for
+// the step limit and the thresholds; scale-covariant like the current one), else now.
+float edge_scale(const FairingTopology& topo, const glm::vec3* x, const FairingWorkspace& ws, uint32_t v) {
+  return ws.rest_edge ? ws.rest_edge[v] : mean_edge_length(topo, x, v);
+}
+
 // Moves every free vertex by ws.displacement, each shortened to kMaxStepPerEdge of its mean
 // edge length measured before anything moves (so the result does not depend on vertex
 // order); returns the largest motion. A non-finite displacement moves nothing.
@@ -105,7 +111,7 @@ float apply_displacements(const FairingTopology& topo, glm::vec3* x, FairingWork
       continue;
     }
     const float length = glm::length(step);
-    const float limit = kMaxStepPerEdge * mean_edge_length(topo, x, v);
+    const float limit = kMaxStepPerEdge * edge_scale(topo, x, ws, v);
     if (length > limit) step *= limit / length;
     largest = std::max(largest, std::min(length, limit));
   }
@@ -180,7 +186,7 @@ float fold_step(const FairingTopology& topo, const glm::vec3* skeletal, const fl
       if (glm::dot(ws.umbrella[topo.neighbours[k]], ws.umbrella[v]) < 0.0f) ++obtuse;
     // An umbrella below a thousandth of the edge length (relative to rest: the pose has not
     // changed the surface here) has no meaningful direction: no fold, α as for a smooth spot.
-    const float edge = mean_edge_length(topo, x, v);
+    const float edge = edge_scale(topo, x, ws, v);
     const bool negligible = glm::length(ws.umbrella[v]) < 1e-3f * edge;
     const float alpha =
         negligible || static_cast<float>(obtuse) < kObtuseFraction * static_cast<float>(end - begin) ? kAlphaSmooth : 0.0f;
@@ -650,6 +656,7 @@ float fair_run(const FairingTopology& topology, const glm::vec3* skeletal, const
   const float diagonal = lo.x <= hi.x ? glm::length(hi - lo) : 0.0f;
 
   workspace.caller_fixed = params.fixed;
+  workspace.rest_edge = rest && rest->mean_edge.size() == vertex_count ? rest->mean_edge.data() : nullptr;
   workspace.search_stride = params.search_stride;
   if (params.search_stride > 1) workspace.search_phase = (workspace.search_phase + 1) % params.search_stride;
   Targets targets;
@@ -767,6 +774,8 @@ FairingRest make_fairing_rest(const FairingTopology& topology, const glm::vec3* 
       const glm::vec3 edge = positions[topology.neighbours[k]] - positions[v];
       rest.edge_2d[k] = glm::vec2(glm::dot(edge, frames[v][0]), glm::dot(edge, frames[v][1]));
     }
+  rest.mean_edge.resize(n);
+  for (uint32_t v = 0; v < n; ++v) rest.mean_edge[v] = mean_edge_length(topology, positions, v);
   rest.umbrella.resize(n);
   rest.bi_umbrella.resize(n);
   for (uint32_t v = 0; v < n; ++v) {

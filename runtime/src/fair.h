@@ -136,6 +136,7 @@ struct FairingWorkspace {
   uint32_t search_phase = 0;             // which vertices search the grid at this call
   Array<glm::vec3> reference_bi;         // U² of FairingParams::smoothing_reference
   Array<glm::vec3> bi_reference;         // U²(x) − reference_bi
+  const float* rest_edge = nullptr;      // FairingRest::mean_edge of the current run, or null
 };
 
 // The flows measured from the rest pose (a departure from the paper, DESIGN.md notes): on a
@@ -151,7 +152,8 @@ struct FairingRest {
   explicit FairingRest(const AllocatorRef& a)
       : umbrella(CallbackAllocator<glm::vec3>(a)), bi_umbrella(CallbackAllocator<glm::vec3>(a)),
         triangle_level(CallbackAllocator<float>(a)), field(CallbackAllocator<float>(a)),
-        gap(CallbackAllocator<float>(a)), edge_2d(CallbackAllocator<glm::vec2>(a)) {}
+        gap(CallbackAllocator<float>(a)), edge_2d(CallbackAllocator<glm::vec2>(a)),
+        mean_edge(CallbackAllocator<float>(a)) {}
   Array<glm::vec3> umbrella;     // U(M_rest) per vertex, in its rest local frame (fairing_frames)
   Array<glm::vec3> bi_umbrella;  // U²(M_rest) per vertex, in its rest local frame
   Array<float> triangle_level;   // E_T(C) of every triangle at rest
@@ -159,6 +161,7 @@ struct FairingRest {
   Array<float> gap;              // |f − g|(M_rest) per vertex (flow (5)'s W numerator)
   Array<glm::vec2> edge_2d;      // per one-ring entry (topology.neighbours): the rest edge in its
                                  // vertex's rest frame (tangent, bitangent components)
+  Array<float> mean_edge;        // mean one-ring edge length per vertex at rest
 };
 
 // Orthonormal frame (columns: tangent, bitangent, normal) per vertex of the control mesh: the
