@@ -13,6 +13,7 @@
 // atomically and depends only on the input and the options.
 #include "animation_glb.h"
 #include "atomic_file.h"
+#include "cli.h"
 #include "gltf_animation.h"
 #include "skelform/bake/bake.h"
 #include "skelform/bake/gltf_writer.h"
@@ -43,9 +44,15 @@ using skelform::samples::AnimationRange;
 using skelform::samples::DeformableFrames;
 using skelform::samples::GltfAnimation;
 using skelform::samples::PrimitiveFrames;
+using skelform::samples::exit_code_of;
+using skelform::samples::fail;
+using skelform::samples::kExitInternal;
+using skelform::samples::kExitInvalidInput;
+using skelform::samples::kExitIo;
+using skelform::samples::kExitOk;
+using skelform::samples::kExitUsage;
+using skelform::samples::lowercase_extension;
 using Clock = std::chrono::steady_clock;
-
-enum ExitCode { kExitOk = 0, kExitUsage = 1, kExitInvalidInput = 2, kExitIo = 3, kExitInternal = 4 };
 
 const char* const kUsage =
     "usage: skelform-animate IN.glb|IN.gltf -o OUT.glb [--fps F] [--max-frames N] [--quiet]\n"
@@ -71,13 +78,6 @@ const char* const kUsage =
 
 constexpr const char* kExtensionName = "SKELFORM_skeletal_deformation";
 
-struct Failure {
-  int exit_code;
-  std::string message;
-};
-
-[[noreturn]] void fail(int exit_code, const std::string& message) { throw Failure{exit_code, message}; }
-
 struct Arguments {
   std::string input;
   std::string output;
@@ -85,12 +85,6 @@ struct Arguments {
   size_t max_frames = 300;
   bool quiet = false;
 };
-
-std::string lowercase_extension(const std::string& path) {
-  std::string extension = std::filesystem::path(path).extension().string();
-  for (char& c : extension) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
-  return extension;
-}
 
 Arguments parse_arguments(int argc, char** argv) {
   Arguments args;
@@ -128,17 +122,6 @@ Arguments parse_arguments(int argc, char** argv) {
   if (std::filesystem::equivalent(args.input, args.output, ignored))
     fail(kExitUsage, "refusing to overwrite the input file " + args.input);
   return args;
-}
-
-int exit_code_of(sf_result result) {
-  switch (result) {
-    case SF_ERROR_IO: return kExitIo;
-    case SF_ERROR_INVALID_ARGUMENT:
-    case SF_ERROR_INVALID_DATA:
-    case SF_ERROR_VERSION_MISMATCH:
-    case SF_ERROR_UNSUPPORTED: return kExitInvalidInput;
-    default: return kExitInternal;
-  }
 }
 
 int exit_code_of(const skelform::bake::Error& error) {
@@ -470,34 +453,11 @@ int run(const Arguments& args) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  for (int i = 1; i < argc; ++i) {
-    const std::string arg = argv[i];
-    if (arg == "-h" || arg == "--help") {
-      std::fputs(kUsage, stdout);
-      return kExitOk;
+  return skelform::samples::run_main("skelform-animate", kUsage, argc, argv, [&] {
+    try {
+      return run(parse_arguments(argc, argv));
+    } catch (const skelform::bake::Error& e) {  // the in-memory bake's failures
+      skelform::samples::fail(exit_code_of(e), e.what());
     }
-    if (arg == "--version") {
-      const uint32_t v = sf_version();
-      std::printf("skelform-animate %u.%u.%u\n", v / 10000, v / 100 % 100, v % 100);
-      return kExitOk;
-    }
-  }
-  try {
-    return run(parse_arguments(argc, argv));
-  } catch (const Failure& failure) {
-    std::fprintf(stderr, "skelform-animate: error: %s\n", failure.message.c_str());
-    return failure.exit_code;
-  } catch (const skelform::bake::Error& e) {
-    std::fprintf(stderr, "skelform-animate: error: %s\n", e.what());
-    return exit_code_of(e);
-  } catch (const skelform::samples::GltfError& e) {
-    std::fprintf(stderr, "skelform-animate: error: %s\n", e.what());
-    return kExitInvalidInput;
-  } catch (const std::bad_alloc&) {
-    std::fprintf(stderr, "skelform-animate: error: out of memory\n");
-    return kExitInternal;
-  } catch (const std::exception& e) {
-    std::fprintf(stderr, "skelform-animate: internal error: %s\n", e.what());
-    return kExitInternal;
-  }
+  });
 }

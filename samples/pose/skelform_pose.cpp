@@ -11,6 +11,7 @@
 // primitives' own triangles. Failures print one line "skelform-pose: error: ..." and exit
 // non-zero (codes in --help); the output is written atomically.
 #include "atomic_file.h"
+#include "cli.h"
 #include "gltf_animation.h"
 #include "skelform/skelform.h"
 
@@ -34,8 +35,14 @@
 namespace {
 
 using skelform::samples::GltfAnimation;
-
-enum ExitCode { kExitOk = 0, kExitUsage = 1, kExitInvalidInput = 2, kExitIo = 3, kExitInternal = 4 };
+using skelform::samples::exit_code_of;
+using skelform::samples::fail;
+using skelform::samples::kExitInternal;
+using skelform::samples::kExitInvalidInput;
+using skelform::samples::kExitIo;
+using skelform::samples::kExitOk;
+using skelform::samples::kExitUsage;
+using skelform::samples::lowercase_extension;
 
 const char* const kUsage =
     "usage: skelform-pose BAKED.glb (--rest | --bind | --anim I --time T | --handles H.json)\n"
@@ -69,14 +76,6 @@ const char* const kUsage =
     "Exit codes: 0 success, 1 bad command line, 2 invalid or unsupported input,\n"
     "            3 file could not be read or written, 4 internal error.\n";
 
-// A failure with the exit code it maps to; the message is one line.
-struct Failure {
-  int exit_code;
-  std::string message;
-};
-
-[[noreturn]] void fail(int exit_code, const std::string& message) { throw Failure{exit_code, message}; }
-
 struct Arguments {
   std::string input;
   std::string output;
@@ -89,12 +88,6 @@ struct Arguments {
   std::optional<uint32_t> deformable;
   bool quiet = false;
 };
-
-std::string lowercase_extension(const std::string& path) {
-  std::string extension = std::filesystem::path(path).extension().string();
-  for (char& c : extension) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
-  return extension;
-}
 
 unsigned long parse_index(const std::string& flag, const std::string& text) {
   char* end = nullptr;
@@ -151,17 +144,6 @@ Arguments parse_arguments(int argc, char** argv) {
   if (std::filesystem::equivalent(args.input, args.output, ignored))
     fail(kExitUsage, "refusing to overwrite the input file " + args.input);
   return args;
-}
-
-int exit_code_of(sf_result result) {
-  switch (result) {
-    case SF_ERROR_IO: return kExitIo;
-    case SF_ERROR_INVALID_ARGUMENT:
-    case SF_ERROR_INVALID_DATA:
-    case SF_ERROR_VERSION_MISMATCH:
-    case SF_ERROR_UNSUPPORTED: return kExitInvalidInput;
-    default: return kExitInternal;
-  }
 }
 
 // Owns the C API objects so every exit path releases them.
@@ -452,31 +434,6 @@ int run(const Arguments& args) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  for (int i = 1; i < argc; ++i) {
-    const std::string arg = argv[i];
-    if (arg == "-h" || arg == "--help") {
-      std::fputs(kUsage, stdout);
-      return kExitOk;
-    }
-    if (arg == "--version") {
-      const uint32_t v = sf_version();
-      std::printf("skelform-pose %u.%u.%u\n", v / 10000, v / 100 % 100, v % 100);
-      return kExitOk;
-    }
-  }
-  try {
-    return run(parse_arguments(argc, argv));
-  } catch (const Failure& failure) {
-    std::fprintf(stderr, "skelform-pose: error: %s\n", failure.message.c_str());
-    return failure.exit_code;
-  } catch (const skelform::samples::GltfError& e) {
-    std::fprintf(stderr, "skelform-pose: error: %s\n", e.what());
-    return kExitInvalidInput;
-  } catch (const std::bad_alloc&) {
-    std::fprintf(stderr, "skelform-pose: error: out of memory\n");
-    return kExitInternal;
-  } catch (const std::exception& e) {
-    std::fprintf(stderr, "skelform-pose: internal error: %s\n", e.what());
-    return kExitInternal;
-  }
+  return skelform::samples::run_main("skelform-pose", kUsage, argc, argv,
+                                     [&] { return run(parse_arguments(argc, argv)); });
 }
