@@ -101,9 +101,8 @@ float edge_scale(const FairingTopology& topo, const glm::vec3* x, const FairingW
 
 // Moves every free vertex by ws.displacement, each shortened to kMaxStepPerEdge of its mean
 // edge length measured before anything moves (so the result does not depend on vertex
-// order); returns the largest motion. A non-finite displacement moves nothing.
-float apply_displacements(const FairingTopology& topo, glm::vec3* x, FairingWorkspace& ws) {
-  float largest = 0.0f;
+// order). A non-finite displacement moves nothing.
+void apply_displacements(const FairingTopology& topo, glm::vec3* x, FairingWorkspace& ws) {
   for (uint32_t v = 0; v < topo.vertex_count; ++v) {
     glm::vec3& step = ws.displacement[v];
     if (is_fixed(topo, ws, v) || !finite(step)) {
@@ -113,16 +112,14 @@ float apply_displacements(const FairingTopology& topo, glm::vec3* x, FairingWork
     const float length = glm::length(step);
     const float limit = kMaxStepPerEdge * edge_scale(topo, x, ws, v);
     if (length > limit) step *= limit / length;
-    largest = std::max(largest, std::min(length, limit));
   }
   for (uint32_t v = 0; v < topo.vertex_count; ++v) x[v] += ws.displacement[v];
-  return largest;
 }
 
 // Semi-implicit step: solves x' + τ B_v U²(x') = rhs (rhs in ws.start_positions) in place,
 // then turns x' − x into ws.displacement and applies it like an explicit step.
-float implicit_update(const FairingTopology& topo, glm::vec3* x, float step, float tangential_weight,
-                      const Targets& targets, FairingWorkspace& ws);
+void implicit_update(const FairingTopology& topo, glm::vec3* x, float step, float tangential_weight,
+                     const Targets& targets, FairingWorkspace& ws);
 
 // (I + c B)⁻¹ z for B = a I + b (I − n nᵀ), |n| ≤ 1 (Sherman-Morrison on k I − c b n nᵀ,
 // k = 1 + c (a + b); k − c b |n|² ≥ 1 + c a > 0).
@@ -154,9 +151,9 @@ void gauss_seidel(const FairingTopology& topo, glm::vec3* x, float step, float t
 
 // ---- flow (4) ----------------------------------------------------------------------------
 
-// One step of flow (4); returns the largest vertex motion.
-float fold_step(const FairingTopology& topo, const glm::vec3* skeletal, const float* radius, glm::vec3* x,
-                float step, bool semi_implicit, const Targets& targets, FairingWorkspace& ws) {
+// One step of flow (4).
+void fold_step(const FairingTopology& topo, const glm::vec3* skeletal, const float* radius, glm::vec3* x,
+               float step, bool semi_implicit, const Targets& targets, FairingWorkspace& ws) {
   const uint32_t vertex_count = topo.vertex_count;
   compute_umbrellas(topo, x, targets, ws);
 
@@ -216,9 +213,12 @@ float fold_step(const FairingTopology& topo, const glm::vec3* skeletal, const fl
     ws.displacement[v] = semi_implicit ? -step * force : -step * (alpha * smooth + force + tangential);
   }
 
-  if (!semi_implicit) return apply_displacements(topo, x, ws);  // Jacobi: all from one state
+  if (!semi_implicit) {
+    apply_displacements(topo, x, ws);  // Jacobi: all from one state
+    return;
+  }
   for (uint32_t v = 0; v < vertex_count; ++v) ws.start_positions[v] = x[v] + ws.displacement[v];  // x − τF
-  return implicit_update(topo, x, step, 1.0f, targets, ws);
+  implicit_update(topo, x, step, 1.0f, targets, ws);
 }
 
 // ---- flow (5) ----------------------------------------------------------------------------
@@ -354,10 +354,10 @@ FieldValue field_at(const Grid& grid, const glm::vec3& x, const glm::vec3* skele
   return best;
 }
 
-// One step of flow (5); returns the largest vertex motion.
-float intersection_step(const FairingTopology& topo, const Grid& grid, const glm::vec3* skeletal, const float* radius,
-                        glm::vec3* x, float step, bool semi_implicit, bool refresh_field, const Targets& targets,
-                        FairingWorkspace& ws) {
+// One step of flow (5).
+void intersection_step(const FairingTopology& topo, const Grid& grid, const glm::vec3* skeletal, const float* radius,
+                       glm::vec3* x, float step, bool semi_implicit, bool refresh_field, const Targets& targets,
+                       FairingWorkspace& ws) {
   const uint32_t vertex_count = topo.vertex_count;
   compute_umbrellas(topo, x, targets, ws);
 
@@ -427,14 +427,15 @@ float intersection_step(const FairingTopology& topo, const Grid& grid, const glm
     for (uint32_t v = 0; v < vertex_count; ++v)
       ws.displacement[v] -=
           step * ws.smoothing_weight[v] * (targets.reference_bi_umbrella ? ws.bi_reference[v] : ws.bi_umbrella[v]);
-    return apply_displacements(topo, x, ws);
+    apply_displacements(topo, x, ws);
+    return;
   }
   for (uint32_t v = 0; v < vertex_count; ++v) ws.start_positions[v] = x[v] + ws.displacement[v];  // x − τG
-  return implicit_update(topo, x, step, 0.0f, targets, ws);
+  implicit_update(topo, x, step, 0.0f, targets, ws);
 }
 
-float implicit_update(const FairingTopology& topo, glm::vec3* x, float step, float tangential_weight,
-                      const Targets& targets, FairingWorkspace& ws) {
+void implicit_update(const FairingTopology& topo, glm::vec3* x, float step, float tangential_weight,
+                     const Targets& targets, FairingWorkspace& ws) {
   // ws.umbrella is free now: keep x before the solve there.
   for (uint32_t v = 0; v < topo.vertex_count; ++v) ws.umbrella[v] = x[v];
   gauss_seidel(topo, x, step, tangential_weight, targets, ws);
@@ -442,7 +443,7 @@ float implicit_update(const FairingTopology& topo, glm::vec3* x, float step, flo
     ws.displacement[v] = x[v] - ws.umbrella[v];
     x[v] = ws.umbrella[v];
   }
-  return apply_displacements(topo, x, ws);
+  apply_displacements(topo, x, ws);
 }
 
 }  // namespace
