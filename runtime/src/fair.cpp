@@ -165,7 +165,7 @@ void fold_step(const FairingTopology& topo, const glm::vec3* skeletal, const flo
     const float radii[3] = {radius[corner[0]], radius[corner[1]], radius[corner[2]]};
     glm::vec3 force(0.0f);
     if (finite(centroid) && finite(centres[0]) && finite(centres[1]) && finite(centres[2])) {
-      const HullDistance e = ball_hull_distance(centroid, centres, radii);
+      const HullDistance e = ball_hull_distance(centroid, centres, radii, ws.hull_case.data() + t);
       force = (targets.triangle_level ? e.value - targets.triangle_level[t] : e.value) * e.gradient;
     }
     ws.triangle_force[t] = finite(force) ? force : glm::vec3(0.0f);
@@ -450,24 +450,99 @@ void implicit_update(const FairingTopology& topo, glm::vec3* x, float step, floa
 
 // ---- E_T ---------------------------------------------------------------------------------
 
-HullDistance ball_hull_distance(const glm::vec3& point, const glm::vec3* centres, const float* radii) {
-  using glm::dvec3;
+namespace {
+
+using glm::dvec3;
+
+// The foot of the minimum of E_T along the cone frustum of balls i and j = i + 1 (mod 3):
+// with s the arc length along the axis, φ(s) = sqrt((a − s)² + h²) − r_i − k s,
+// k = (r_j − r_i)/L; φ'(s) = 0 at s* = a + k h / sqrt(1 − k²) when |k| < 1 (else one ball
+// contains the other: a vertex wins). False when the edge has no such minimum; `clamped` when
+// s* was clamped to an end (a vertex is then the foot).
+bool edge_foot(const dvec3& p, const dvec3* c, const double* r, int i, dvec3& foot, double& foot_radius,
+               bool& clamped) {
+  const int j = (i + 1) % 3;
+  const dvec3 edge = c[j] - c[i];
+  const double length = glm::length(edge);
+  if (!(length > 0.0)) return false;
+  const double k = (r[j] - r[i]) / length;
+  if (!(std::fabs(k) < 1.0)) return false;
+  const dvec3 axis = edge / length;
+  const dvec3 u = p - c[i];
+  const double a = glm::dot(u, axis);
+  const double h = glm::length(u - a * axis);
+  const double unclamped = a + k * h / std::sqrt(1.0 - k * k);
+  const double s = std::clamp(unclamped, 0.0, length);
+  clamped = !(unclamped > 0.0 && unclamped < length);
+  foot = c[i] + s * axis;
+  foot_radius = r[i] + k * s;
+  return true;
+}
+
+// Directional derivative of φ(b) = |P − c(b)| − r(b) at a foot (unit n = (P − foot)/|P − foot|)
+// towards ball m: moving weight to m moves the foot by c_m − foot and its radius by r_m − r.
+double toward(const dvec3& n, const dvec3& foot, double foot_radius, const dvec3& centre, double radius) {
+  return -glm::dot(n, centre - foot) - (radius - foot_radius);
+}
+
+}  // namespace
+
+HullDistance ball_hull_distance(const glm::vec3& point, const glm::vec3* centres, const float* radii,
+                                uint8_t* hint) {
   const dvec3 p(point);
   const dvec3 c[3] = {dvec3(centres[0]), dvec3(centres[1]), dvec3(centres[2])};
   const double r[3] = {radii[0], radii[1], radii[2]};
 
+  // The hint's candidate first. φ is convex in b and differentiable wherever P is off the
+  // foot, so a boundary candidate whose derivatives towards the triangle's other corners are
+  // all ≥ 0 (the KKT conditions) is the minimum over the whole triangle: the same foot, with
+  // the same arithmetic, as the full search below would pick.
+  if (hint && *hint >= kHullCaseVertex && *hint < kHullCaseVertex + 6) {
+    const int which = *hint - kHullCaseVertex;  // 0..2 a vertex, 3..5 an edge
+    const int i = which % 3;
+    dvec3 foot;
+    double foot_radius = 0.0;
+    bool clamped = false;
+    bool valid = true;
+    if (which < 3) {
+      foot = c[i];
+      foot_radius = r[i];
+    } else {
+      valid = edge_foot(p, c, r, i, foot, foot_radius, clamped) && !clamped;
+    }
+    if (valid) {
+      const dvec3 offset = p - foot;
+      const double distance = glm::length(offset);
+      if (distance > 0.0) {
+        const dvec3 n = offset / distance;
+        const int j = (i + 1) % 3, k = (i + 2) % 3;
+        const bool minimum = which < 3 ? toward(n, foot, foot_radius, c[j], r[j]) >= 0.0 &&
+                                             toward(n, foot, foot_radius, c[k], r[k]) >= 0.0
+                                       : toward(n, foot, foot_radius, c[k], r[k]) >= 0.0;
+        if (minimum) {
+          HullDistance result;
+          result.value = static_cast<float>(distance - foot_radius);
+          result.gradient = glm::vec3(n);
+          if (std::isfinite(result.value) && finite(result.gradient)) return result;
+        }
+      }
+    }
+  }
+
   double best = std::numeric_limits<double>::infinity();
   dvec3 best_gradient(0.0);
+  uint8_t best_case = kHullCaseUnknown;
   // A candidate b in the closed triangle with its foot c(b) and value |P − c(b)| − r(b); the
   // function is convex in b, so the smallest candidate among {interior stationary point,
   // each edge's minimum, each vertex} is the minimum.
-  auto consider_foot = [&](const dvec3& foot, double foot_radius) {
+  auto consider_foot = [&](const dvec3& foot, double foot_radius, uint8_t which) {
     const dvec3 offset = p - foot;
     const double distance = glm::length(offset);
     const double value = distance - foot_radius;
     if (value < best) {
       best = value;
       best_gradient = distance > 0.0 ? offset / distance : dvec3(0.0);
+      best_case = which;
     }
   };
   // Interior (tangent-plane case): at a stationary b the unit n = (P − c(b))/|P − c(b)| obeys
@@ -501,29 +576,22 @@ HullDistance ball_hull_distance(const glm::vec3& point, const glm::vec3* centres
         HullDistance result;
         result.value = static_cast<float>(t - (r[0] + beta1 * d1 + beta2 * d2));
         result.gradient = glm::vec3(n);
-        if (std::isfinite(result.value) && finite(result.gradient)) return result;
+        if (std::isfinite(result.value) && finite(result.gradient)) {
+          if (hint) *hint = kHullCaseInterior;
+          return result;
+        }
       }
     }
   }
-  for (int i = 0; i < 3; ++i) consider_foot(c[i], r[i]);  // a vertex: the sphere itself
-
-  // Edges: the cone frustum of balls i and j. With s the arc length along the axis,
-  // φ(s) = sqrt((a − s)² + h²) − r_i − k s, k = (r_j − r_i)/L; φ'(s) = 0 at
-  // s* = a + k h / sqrt(1 − k²) when |k| < 1 (else one ball contains the other: a vertex wins).
+  for (int i = 0; i < 3; ++i) consider_foot(c[i], r[i], uint8_t(kHullCaseVertex + i));  // the sphere itself
   for (int i = 0; i < 3; ++i) {
-    const int j = (i + 1) % 3;
-    const dvec3 edge = c[j] - c[i];
-    const double length = glm::length(edge);
-    if (!(length > 0.0)) continue;
-    const double k = (r[j] - r[i]) / length;
-    if (!(std::fabs(k) < 1.0)) continue;
-    const dvec3 axis = edge / length;
-    const dvec3 u = p - c[i];
-    const double a = glm::dot(u, axis);
-    const double h = glm::length(u - a * axis);
-    const double s = std::clamp(a + k * h / std::sqrt(1.0 - k * k), 0.0, length);
-    consider_foot(c[i] + s * axis, r[i] + k * s);
+    dvec3 foot;
+    double foot_radius = 0.0;
+    bool clamped = false;
+    if (edge_foot(p, c, r, i, foot, foot_radius, clamped))
+      consider_foot(foot, foot_radius, uint8_t(kHullCaseVertex + 3 + i));
   }
+  if (hint) *hint = best_case;
 
   HullDistance result;
   result.value = std::isfinite(best) ? static_cast<float>(best) : 0.0f;
@@ -634,6 +702,7 @@ FairingWorkspace make_fairing_workspace(const FairingTopology& topology, uint32_
   ws.next_minimiser.assign(n, std::numeric_limits<uint32_t>::max());
   ws.reference_bi.assign(n, glm::vec3(0.0f));
   ws.bi_reference.assign(n, glm::vec3(0.0f));
+  ws.hull_case.assign(topology.triangle_count, kHullCaseUnknown);
   return ws;
 }
 

@@ -110,7 +110,8 @@ struct FairingWorkspace {
         vertex_cell(CallbackAllocator<uint32_t>(a)), target_umbrella(CallbackAllocator<glm::vec3>(a)),
         target_bi_umbrella(CallbackAllocator<glm::vec3>(a)), iteration_start(CallbackAllocator<glm::vec3>(a)),
         minimiser(CallbackAllocator<uint32_t>(a)), next_minimiser(CallbackAllocator<uint32_t>(a)),
-        reference_bi(CallbackAllocator<glm::vec3>(a)), bi_reference(CallbackAllocator<glm::vec3>(a)) {}
+        reference_bi(CallbackAllocator<glm::vec3>(a)), bi_reference(CallbackAllocator<glm::vec3>(a)),
+        hull_case(CallbackAllocator<uint8_t>(a)) {}
 
   uint32_t vertex_count = 0;
   uint32_t triangle_count = 0;
@@ -137,6 +138,7 @@ struct FairingWorkspace {
   Array<glm::vec3> reference_bi;         // U² of FairingParams::smoothing_reference
   Array<glm::vec3> bi_reference;         // U²(x) − reference_bi
   const float* rest_edge = nullptr;      // FairingRest::mean_edge of the current run, or null
+  Array<uint8_t> hull_case;              // per triangle: ball_hull_distance's hint (kHullCase*)
 };
 
 // The flows measured from the rest pose (a departure from the paper, DESIGN.md notes): on a
@@ -215,6 +217,17 @@ struct HullDistance {
   float value = 0.0f;
   glm::vec3 gradient{0.0f};
 };
-HullDistance ball_hull_distance(const glm::vec3& point, const glm::vec3* centres, const float* radii);
+//
+// `hint` (optional, one byte per triangle kept across calls): which candidate won last time
+// (kHullCase*). That candidate is tried first and accepted only if it satisfies the KKT
+// conditions of the convex minimisation, i.e. only if it is the minimum; otherwise the full
+// search runs. The result is that of the full search either way (the same foot, computed with
+// the same arithmetic); the hint only saves time when the foot stays on the same edge or
+// vertex from call to call. Updated on return.
+constexpr uint8_t kHullCaseUnknown = 0;
+constexpr uint8_t kHullCaseInterior = 1;
+constexpr uint8_t kHullCaseVertex = 2;  // + i for ball i; kHullCaseVertex + 3 + i for edge (i, i+1)
+HullDistance ball_hull_distance(const glm::vec3& point, const glm::vec3* centres, const float* radii,
+                                uint8_t* hint = nullptr);
 
 }  // namespace skelform::runtime

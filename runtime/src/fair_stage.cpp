@@ -89,7 +89,10 @@ void fair_stage(sf_instance& instance, const FairStageOptions& options) {
   const float intersection_step = params.intersection_step > 0.0f ? params.intersection_step : kDefaultIntersectionStep;
   float gain = instance.fairing_gain;
   // A fresh start forgets the tracking schedule too: its result depends on this input only.
-  if (!warm) instance.fairing.search_phase = 0;
+  if (!warm) {
+    instance.fairing.search_phase = 0;
+    std::fill(instance.fairing.hull_case.begin(), instance.fairing.hull_case.end(), kHullCaseUnknown);
+  }
   uint32_t done = 0;
   float residual = 0.0f;
   // Warm: the budget in one fair_run() call (one grid, one field search). Converging: calls of
