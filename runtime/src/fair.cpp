@@ -467,7 +467,7 @@ bool edge_foot(const dvec3& p, const dvec3* c, const double* r, int i, dvec3& fo
   if (!(length > 0.0)) return false;
   const double k = (r[j] - r[i]) / length;
   if (!(std::fabs(k) < 1.0)) return false;
-  const dvec3 axis = edge / length;
+  const dvec3 axis = edge * (1.0 / length);
   const dvec3 u = p - c[i];
   const double a = glm::dot(u, axis);
   const double h = glm::length(u - a * axis);
@@ -514,7 +514,7 @@ HullDistance ball_hull_distance(const glm::vec3& point, const glm::vec3* centres
       const dvec3 offset = p - foot;
       const double distance = glm::length(offset);
       if (distance > 0.0) {
-        const dvec3 n = offset / distance;
+        const dvec3 n = offset * (1.0 / distance);
         const int j = (i + 1) % 3, k = (i + 2) % 3;
         const bool minimum = which < 3 ? toward(n, foot, foot_radius, c[j], r[j]) >= 0.0 &&
                                              toward(n, foot, foot_radius, c[k], r[k]) >= 0.0
@@ -541,7 +541,7 @@ HullDistance ball_hull_distance(const glm::vec3& point, const glm::vec3* centres
     const double value = distance - foot_radius;
     if (value < best) {
       best = value;
-      best_gradient = distance > 0.0 ? offset / distance : dvec3(0.0);
+      best_gradient = distance > 0.0 ? offset * (1.0 / distance) : dvec3(0.0);
       best_case = which;
     }
   };
@@ -555,21 +555,22 @@ HullDistance ball_hull_distance(const glm::vec3& point, const glm::vec3* centres
   const double det = g11 * g22 - g12 * g12;  // |e1 × e2|²
   if (det > 1e-14 * g11 * g22 && det > 0.0) {
     const double d1 = r[1] - r[0], d2 = r[2] - r[0];
-    const double a = (-d1 * g22 + d2 * g12) / det;
-    const double b = (-d2 * g11 + d1 * g12) / det;
+    const double inverse_det = 1.0 / det;  // (reciprocals: one division each, not one per use)
+    const double a = (-d1 * g22 + d2 * g12) * inverse_det;
+    const double b = (-d2 * g11 + d1 * g12) * inverse_det;
     const dvec3 n0 = a * e1 + b * e2;
     const double q = 1.0 - glm::dot(n0, n0);
     if (q > 0.0) {
       const double mu = std::sqrt(q);
-      const dvec3 m = glm::cross(e1, e2) / std::sqrt(det);
+      const dvec3 m = glm::cross(e1, e2) * (1.0 / std::sqrt(det));
       const double w = glm::dot(p - c[0], m);
       const double sigma = w >= 0.0 ? 1.0 : -1.0;
       const dvec3 n = n0 + sigma * mu * m;
       const double t = std::fabs(w) / mu;
       const dvec3 foot = p - t * n - c[0];
       const double f1 = glm::dot(foot, e1), f2 = glm::dot(foot, e2);
-      const double beta1 = (f1 * g22 - f2 * g12) / det;
-      const double beta2 = (f2 * g11 - f1 * g12) / det;
+      const double beta1 = (f1 * g22 - f2 * g12) * inverse_det;
+      const double beta2 = (f2 * g11 - f1 * g12) * inverse_det;
       if (beta1 >= 0.0 && beta2 >= 0.0 && beta1 + beta2 <= 1.0) {
         // φ is convex: a stationary point inside the triangle is its minimum, so the
         // boundary candidates below need not be evaluated.
