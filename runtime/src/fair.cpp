@@ -736,10 +736,14 @@ float fair_run(const FairingTopology& topology, const glm::vec3* skeletal, const
     if (params.smoothing_reference) {
       // U² of the reference surface (the unfaired reconstruction M): smoothing against it
       // smooths the correction x − M itself.
+      const glm::vec3* reference_umbrella = params.smoothing_reference_umbrella;
+      if (!reference_umbrella) {
+        for (size_t v = 0; v < vertex_count; ++v)
+          workspace.target_umbrella[v] = umbrella_at(topology, params.smoothing_reference, uint32_t(v));
+        reference_umbrella = workspace.target_umbrella.data();
+      }
       for (size_t v = 0; v < vertex_count; ++v)
-        workspace.target_umbrella[v] = umbrella_at(topology, params.smoothing_reference, uint32_t(v));
-      for (size_t v = 0; v < vertex_count; ++v)
-        workspace.reference_bi[v] = umbrella_at(topology, workspace.target_umbrella.data(), uint32_t(v));
+        workspace.reference_bi[v] = umbrella_at(topology, reference_umbrella, uint32_t(v));
     }
     for (size_t v = 0; v < vertex_count; ++v) {
       workspace.target_umbrella[v] = frames[v] * rest->umbrella[v];
@@ -791,15 +795,15 @@ void fairing_frames(const FairingTopology& topology, const glm::vec3* skeletal, 
       }
       length = glm::length(normal);
     }
-    normal = length > 0.0f && std::isfinite(length) ? normal / length : glm::vec3(0.0f, 0.0f, 1.0f);
+    normal = length > 0.0f && std::isfinite(length) ? normal * (1.0f / length) : glm::vec3(0.0f, 0.0f, 1.0f);
     // Tangent: the first one-ring edge not parallel to the normal, else a coordinate axis.
     glm::vec3 tangent(0.0f);
     for (uint32_t k = topology.neighbour_offsets[v]; k < topology.neighbour_offsets[v + 1]; ++k) {
       const glm::vec3 edge = positions[topology.neighbours[k]] - positions[v];
       tangent = edge - glm::dot(edge, normal) * normal;
-      const float t = glm::length(tangent);
-      if (t > 1e-6f * glm::length(edge) && std::isfinite(t)) {
-        tangent /= t;
+      const float t2 = glm::dot(tangent, tangent);
+      if (t2 > 1e-12f * glm::dot(edge, edge) && std::isfinite(t2)) {  // |tangent| > 1e-6 |edge|
+        tangent *= 1.0f / std::sqrt(t2);
         break;
       }
       tangent = glm::vec3(0.0f);
@@ -821,7 +825,8 @@ void fairing_frames(const FairingTopology& topology, const glm::vec3* skeletal, 
       // cos and sin of the best angle, atan2(cross, dot), without trigonometry.
       const float length = std::sqrt(dot * dot + cross * cross);
       if (length > 0.0f && std::isfinite(length)) {
-        const float c = dot / length, s = cross / length;
+        const float inverse = 1.0f / length;
+        const float c = dot * inverse, s = cross * inverse;
         const glm::vec3 turned = c * tangent + s * bitangent;
         bitangent = -s * tangent + c * bitangent;
         tangent = turned;

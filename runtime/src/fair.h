@@ -94,6 +94,8 @@ struct FairingParams {
   // restoring the rest shape along the surface. Null: every bilaplacian relative to the rest
   // shape turned by the local frames.
   const glm::vec3* smoothing_reference = nullptr;
+  // Optional: U(smoothing_reference) per vertex, when the caller has it already (saves a pass).
+  const glm::vec3* smoothing_reference_umbrella = nullptr;
   // Optional, per vertex: non-zero = keep this vertex where it is (e.g. the handle driver's
   // pinned vertices), in addition to open borders. Null = none.
   const uint8_t* fixed = nullptr;

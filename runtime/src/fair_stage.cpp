@@ -50,7 +50,9 @@ void fair_stage(sf_instance& instance, const FairStageOptions& options) {
       edge += glm::length(x[topo.neighbours[k]] - x[v]);
     }
     const float count = static_cast<float>(end - begin);
-    const glm::vec3 shape = glm::transpose(frames[v]) * (mean / count - x[v]) / std::max(edge / count, 1e-30f);
+    const glm::vec3 umbrella = mean / count - x[v];
+    instance.fairing_reference_umbrella[v] = umbrella;  // U(M), the smoothing reference's, for fair_run
+    const glm::vec3 shape = glm::transpose(frames[v]) * umbrella / std::max(edge / count, 1e-30f);
     const float change = glm::length(shape - instance.fairing_shape[v]);
     if (!(change <= kPoseJumpShape)) ++changed;  // NaN counts as changed
     instance.fairing_shape[v] = shape;
@@ -75,6 +77,7 @@ void fair_stage(sf_instance& instance, const FairStageOptions& options) {
   FairingParams params = options.params;
   // The α and W smoothing act on the correction (fair.h FairingParams::smoothing_reference).
   params.smoothing_reference = instance.fairing_start.data();
+  params.smoothing_reference_umbrella = instance.fairing_reference_umbrella.data();
   // The handle driver's pinned region stays at rest (paper Fig. 1): a skeletal vertex that the
   // displacement field left exactly in place keeps its control vertex out of the fairing.
   if (instance.driver == Driver::handles) {
