@@ -8,10 +8,12 @@
 #include "dss_frame.h"
 #include "extension_layout.h"
 #include "refine.h"
+#include "skin_blend.h"
 
 #include <tiny_gltf.h>
 
 #include <glm/geometric.hpp>
+#include <glm/mat3x3.hpp>
 
 #include <algorithm>
 #include <array>
@@ -534,15 +536,22 @@ void load_deformable(const tinygltf::Model& model, const tinygltf::Value& json, 
   compute_missing_normals(deformable);
 }
 
-// The rest evaluation, once: refined rest surface, the frame at every bound point, and the
-// control vertex a handle on each dense vertex moves.
+// The rest evaluation, once: refined rest surface, the corners of every bound triangle, the
+// rest normal and tangent in the frame at every bound point, and the control vertex a handle
+// on each dense vertex moves.
 void derive_rest_data(Deformable& deformable) {
   std::vector<glm::vec3> refined(deformable.refined_vertex_count);
   std::vector<glm::vec3> normals(deformable.refined_vertex_count);
   refine_positions(deformable, deformable.control_positions.data(), refined.data());
   refined_normals(deformable, refined.data(), normals.data());
 
-  deformable.rest_frames.resize(deformable.vertex_count);
+  deformable.binding_corners.resize(3 * size_t{deformable.vertex_count});
+  for (uint32_t v = 0; v < deformable.vertex_count; ++v)
+    for (uint32_t k = 0; k < 3; ++k)
+      deformable.binding_corners[3 * size_t{v} + k] =
+          deformable.refined_indices[3 * size_t{deformable.binding_triangle[v]} + k];
+  deformable.rest_normal_coords.resize(deformable.vertex_count);
+  deformable.rest_tangent_coords.resize(deformable.vertex_count);
   deformable.handle_control_vertex.resize(deformable.vertex_count);
   std::vector<bool> computed_normal(deformable.vertex_count, false);
   for (const PrimitiveRecord& record : deformable.primitives)
@@ -551,12 +560,16 @@ void derive_rest_data(Deformable& deformable) {
 
   for (uint32_t v = 0; v < deformable.vertex_count; ++v) {
     const dss::SurfaceFrame frame = bound_frame(deformable, refined.data(), normals.data(), v);
-    deformable.rest_frames[v] = glm::mat3(frame.tangent, frame.bitangent, frame.normal);
     if (computed_normal[v] && deformable.rest_normals[v] == glm::vec3(0.0f)) deformable.rest_normals[v] = frame.normal;
+    // Coordinates in the rest frame F (columns tangent, bitangent, normal): F^T x.
+    const glm::mat3 to_frame = glm::transpose(glm::mat3(frame.tangent, frame.bitangent, frame.normal));
+    deformable.rest_normal_coords[v] = normalize_or(to_frame * deformable.rest_normals[v], glm::vec3(0, 0, 1));
+    deformable.rest_tangent_coords[v] =
+        normalize_or(to_frame * glm::vec3(deformable.rest_tangents[v]), glm::vec3(1, 0, 0));
 
     // Corner with the largest barycentric, then its heaviest stencil entry. Corners whose
     // stencil is empty (legal, if odd) are skipped in barycentric order.
-    const uint32_t* corner = deformable.refined_indices.data() + 3 * size_t{deformable.binding_triangle[v]};
+    const uint32_t* corner = deformable.binding_corners.data() + 3 * size_t{v};
     const glm::vec2 b = deformable.binding_barycentric[v];
     std::array<std::pair<float, uint32_t>, 3> by_weight = {
         {{1.0f - b.x - b.y, corner[0]}, {b.x, corner[1]}, {b.y, corner[2]}}};
