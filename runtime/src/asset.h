@@ -73,7 +73,10 @@ struct Deformable {
   Array<uint16_t> control_joints;
   Array<float> control_weights;
 
-  // Loop stencils to level `subdivision_level` and the refined triangles.
+  // Loop stencils to level `subdivision_level` and the refined triangles. The loader renumbers
+  // the refined vertices (stencil rows and triangle corners alike) in the order the dense
+  // vertices' bindings first name them, for locality (asset_load.cpp
+  // renumber_refined_vertices); the numbering is internal, the results are the baked ones.
   uint32_t subdivision_level = 0;
   uint32_t refined_vertex_count = 0;
   Array<uint32_t> stencil_offsets;  // refined_vertex_count + 1

@@ -536,10 +536,55 @@ void load_deformable(const tinygltf::Model& model, const tinygltf::Value& json, 
   compute_missing_normals(deformable);
 }
 
+// Renumbers the refined vertices in the order the dense vertices first name them as corners
+// of their bound triangles (then the unnamed ones, in baked order): the per-frame DSS loop
+// (displace.cpp) walks the dense vertices in order, and in the baked numbering their corners
+// lie all over the refined arrays (~3 cache lines per dense vertex on a Loop-subdivided
+// CesiumMan). A pure renaming: stencil rows move with their vertex, refined triangles keep
+// their order and their corners' roles, so every refined position and normal is computed
+// with the same operations in the same order, and the evaluation gives the same bits.
+void renumber_refined_vertices(Deformable& deformable) {
+  const uint32_t count = deformable.refined_vertex_count;
+  constexpr uint32_t kUnnamed = std::numeric_limits<uint32_t>::max();
+  std::vector<uint32_t> new_of_old(count, kUnnamed), old_of_new;
+  old_of_new.reserve(count);
+  for (uint32_t v = 0; v < deformable.vertex_count; ++v)
+    for (uint32_t k = 0; k < 3; ++k) {
+      const uint32_t old = deformable.refined_indices[3 * size_t{deformable.binding_triangle[v]} + k];
+      if (new_of_old[old] != kUnnamed) continue;
+      new_of_old[old] = static_cast<uint32_t>(old_of_new.size());
+      old_of_new.push_back(old);
+    }
+  for (uint32_t old = 0; old < count; ++old)
+    if (new_of_old[old] == kUnnamed) {
+      new_of_old[old] = static_cast<uint32_t>(old_of_new.size());
+      old_of_new.push_back(old);
+    }
+  Array<uint32_t> offsets(deformable.stencil_offsets.get_allocator());
+  Array<uint32_t> indices(deformable.stencil_indices.get_allocator());
+  Array<float> weights(deformable.stencil_weights.get_allocator());
+  offsets.reserve(deformable.stencil_offsets.size());
+  indices.reserve(deformable.stencil_indices.size());
+  weights.reserve(deformable.stencil_weights.size());
+  offsets.push_back(0);
+  for (uint32_t old : old_of_new) {
+    for (uint32_t s = deformable.stencil_offsets[old]; s < deformable.stencil_offsets[old + 1]; ++s) {
+      indices.push_back(deformable.stencil_indices[s]);
+      weights.push_back(deformable.stencil_weights[s]);
+    }
+    offsets.push_back(static_cast<uint32_t>(indices.size()));
+  }
+  deformable.stencil_offsets.swap(offsets);
+  deformable.stencil_indices.swap(indices);
+  deformable.stencil_weights.swap(weights);
+  for (uint32_t& index : deformable.refined_indices) index = new_of_old[index];
+}
+
 // The rest evaluation, once: refined rest surface, the corners of every bound triangle, the
 // rest normal and tangent in the frame at every bound point, and the control vertex a handle
 // on each dense vertex moves.
 void derive_rest_data(Deformable& deformable) {
+  renumber_refined_vertices(deformable);
   std::vector<glm::vec3> refined(deformable.refined_vertex_count);
   std::vector<glm::vec3> normals(deformable.refined_vertex_count);
   refine_positions(deformable, deformable.control_positions.data(), refined.data());
