@@ -7,7 +7,6 @@
 #include "memory.h"
 #include "skelform/skelform.h"
 
-#include <glm/mat3x3.hpp>
 #include <glm/vec2.hpp>
 #include <glm/vec3.hpp>
 #include <glm/vec4.hpp>
@@ -41,7 +40,8 @@ struct Deformable {
         stencil_weights(CallbackAllocator<float>(a)), refined_indices(CallbackAllocator<uint32_t>(a)),
         binding_triangle(CallbackAllocator<uint32_t>(a)), binding_barycentric(CallbackAllocator<glm::vec2>(a)),
         binding_displacement(CallbackAllocator<float>(a)), binding_residual(CallbackAllocator<glm::vec2>(a)),
-        rest_frames(CallbackAllocator<glm::mat3>(a)), handle_control_vertex(CallbackAllocator<uint32_t>(a)),
+        binding_corners(CallbackAllocator<uint32_t>(a)), rest_normal_coords(CallbackAllocator<glm::vec3>(a)),
+        rest_tangent_coords(CallbackAllocator<glm::vec3>(a)), handle_control_vertex(CallbackAllocator<uint32_t>(a)),
         fairing_topology(a), fairing_rest(a) {}
 
   int32_t mesh = -1;
@@ -73,7 +73,10 @@ struct Deformable {
   Array<uint16_t> control_joints;
   Array<float> control_weights;
 
-  // Loop stencils to level `subdivision_level` and the refined triangles.
+  // Loop stencils to level `subdivision_level` and the refined triangles. The loader renumbers
+  // the refined vertices (stencil rows and triangle corners alike) in the order the dense
+  // vertices' bindings first name them, for locality (asset_load.cpp
+  // renumber_refined_vertices); the numbering is internal, the results are the baked ones.
   uint32_t subdivision_level = 0;
   uint32_t refined_vertex_count = 0;
   Array<uint32_t> stencil_offsets;  // refined_vertex_count + 1
@@ -87,10 +90,21 @@ struct Deformable {
   Array<float> binding_displacement;
   Array<glm::vec2> binding_residual;
 
-  // Derived at load time from the rest evaluation (dss_frame.h): the rest frame
-  // (tangent, bitangent, normal as columns) of each dense vertex's bound point, so normals
-  // and tangents turn by the rotation from rest frame to deformed frame.
-  Array<glm::mat3> rest_frames;
+  // Derived at load time, for the per-frame loop of displace.cpp (36 bytes per dense vertex):
+  //   binding_corners  the refined vertices of each dense vertex's bound triangle (3 per dense
+  //                    vertex: refined_indices of binding_triangle, one indirection less);
+  //   rest_normal_coords, rest_tangent_coords  the unit rest normal and tangent direction in
+  //                    the rest frame F = (tangent, bitangent, normal) of the bound point
+  //                    (dss_frame.h): c = normalize(F^T n_rest). The rotation R = F' F^T to the
+  //                    deformed frame F' then carries the normal as R n_rest / |n_rest| = F' c
+  //                    = c.x t' + c.y b' + c.z n', no 3x3 product and no renormalisation (F'
+  //                    is orthonormal). A rest vector without a direction gets c = (0, 0, 1)
+  //                    (normal) or (1, 0, 0) (tangent): the deformed frame's own normal or
+  //                    tangent, the fallback the carried vectors have always had (and the
+  //                    unused value where a primitive authors no tangents).
+  Array<uint32_t> binding_corners;
+  Array<glm::vec3> rest_normal_coords;
+  Array<glm::vec3> rest_tangent_coords;
   // The control vertex that an original vertex used as a handle moves: the corner with the
   // largest barycentric of its refined triangle, then that refined vertex's heaviest stencil
   // entry.

@@ -8,10 +8,12 @@
 #include "dss_frame.h"
 #include "extension_layout.h"
 #include "refine.h"
+#include "skin_blend.h"
 
 #include <tiny_gltf.h>
 
 #include <glm/geometric.hpp>
+#include <glm/mat3x3.hpp>
 
 #include <algorithm>
 #include <array>
@@ -534,15 +536,67 @@ void load_deformable(const tinygltf::Model& model, const tinygltf::Value& json, 
   compute_missing_normals(deformable);
 }
 
-// The rest evaluation, once: refined rest surface, the frame at every bound point, and the
-// control vertex a handle on each dense vertex moves.
+// Renumbers the refined vertices in the order the dense vertices first name them as corners
+// of their bound triangles (then the unnamed ones, in baked order): the per-frame DSS loop
+// (displace.cpp) walks the dense vertices in order, and in the baked numbering their corners
+// lie all over the refined arrays (~3 cache lines per dense vertex on a Loop-subdivided
+// CesiumMan). A pure renaming: stencil rows move with their vertex, refined triangles keep
+// their order and their corners' roles, so every refined position and normal is computed
+// with the same operations in the same order, and the evaluation gives the same bits.
+void renumber_refined_vertices(Deformable& deformable) {
+  const uint32_t count = deformable.refined_vertex_count;
+  constexpr uint32_t kUnnamed = std::numeric_limits<uint32_t>::max();
+  std::vector<uint32_t> new_of_old(count, kUnnamed), old_of_new;
+  old_of_new.reserve(count);
+  for (uint32_t v = 0; v < deformable.vertex_count; ++v)
+    for (uint32_t k = 0; k < 3; ++k) {
+      const uint32_t old = deformable.refined_indices[3 * size_t{deformable.binding_triangle[v]} + k];
+      if (new_of_old[old] != kUnnamed) continue;
+      new_of_old[old] = static_cast<uint32_t>(old_of_new.size());
+      old_of_new.push_back(old);
+    }
+  for (uint32_t old = 0; old < count; ++old)
+    if (new_of_old[old] == kUnnamed) {
+      new_of_old[old] = static_cast<uint32_t>(old_of_new.size());
+      old_of_new.push_back(old);
+    }
+  Array<uint32_t> offsets(deformable.stencil_offsets.get_allocator());
+  Array<uint32_t> indices(deformable.stencil_indices.get_allocator());
+  Array<float> weights(deformable.stencil_weights.get_allocator());
+  offsets.reserve(deformable.stencil_offsets.size());
+  indices.reserve(deformable.stencil_indices.size());
+  weights.reserve(deformable.stencil_weights.size());
+  offsets.push_back(0);
+  for (uint32_t old : old_of_new) {
+    for (uint32_t s = deformable.stencil_offsets[old]; s < deformable.stencil_offsets[old + 1]; ++s) {
+      indices.push_back(deformable.stencil_indices[s]);
+      weights.push_back(deformable.stencil_weights[s]);
+    }
+    offsets.push_back(static_cast<uint32_t>(indices.size()));
+  }
+  deformable.stencil_offsets.swap(offsets);
+  deformable.stencil_indices.swap(indices);
+  deformable.stencil_weights.swap(weights);
+  for (uint32_t& index : deformable.refined_indices) index = new_of_old[index];
+}
+
+// The rest evaluation, once: refined rest surface, the corners of every bound triangle, the
+// rest normal and tangent in the frame at every bound point, and the control vertex a handle
+// on each dense vertex moves.
 void derive_rest_data(Deformable& deformable) {
+  renumber_refined_vertices(deformable);
   std::vector<glm::vec3> refined(deformable.refined_vertex_count);
   std::vector<glm::vec3> normals(deformable.refined_vertex_count);
   refine_positions(deformable, deformable.control_positions.data(), refined.data());
   refined_normals(deformable, refined.data(), normals.data());
 
-  deformable.rest_frames.resize(deformable.vertex_count);
+  deformable.binding_corners.resize(3 * size_t{deformable.vertex_count});
+  for (uint32_t v = 0; v < deformable.vertex_count; ++v)
+    for (uint32_t k = 0; k < 3; ++k)
+      deformable.binding_corners[3 * size_t{v} + k] =
+          deformable.refined_indices[3 * size_t{deformable.binding_triangle[v]} + k];
+  deformable.rest_normal_coords.resize(deformable.vertex_count);
+  deformable.rest_tangent_coords.resize(deformable.vertex_count);
   deformable.handle_control_vertex.resize(deformable.vertex_count);
   std::vector<bool> computed_normal(deformable.vertex_count, false);
   for (const PrimitiveRecord& record : deformable.primitives)
@@ -551,12 +605,16 @@ void derive_rest_data(Deformable& deformable) {
 
   for (uint32_t v = 0; v < deformable.vertex_count; ++v) {
     const dss::SurfaceFrame frame = bound_frame(deformable, refined.data(), normals.data(), v);
-    deformable.rest_frames[v] = glm::mat3(frame.tangent, frame.bitangent, frame.normal);
     if (computed_normal[v] && deformable.rest_normals[v] == glm::vec3(0.0f)) deformable.rest_normals[v] = frame.normal;
+    // Coordinates in the rest frame F (columns tangent, bitangent, normal): F^T x.
+    const glm::mat3 to_frame = glm::transpose(glm::mat3(frame.tangent, frame.bitangent, frame.normal));
+    deformable.rest_normal_coords[v] = normalize_or(to_frame * deformable.rest_normals[v], glm::vec3(0, 0, 1));
+    deformable.rest_tangent_coords[v] =
+        normalize_or(to_frame * glm::vec3(deformable.rest_tangents[v]), glm::vec3(1, 0, 0));
 
     // Corner with the largest barycentric, then its heaviest stencil entry. Corners whose
     // stencil is empty (legal, if odd) are skipped in barycentric order.
-    const uint32_t* corner = deformable.refined_indices.data() + 3 * size_t{deformable.binding_triangle[v]};
+    const uint32_t* corner = deformable.binding_corners.data() + 3 * size_t{v};
     const glm::vec2 b = deformable.binding_barycentric[v];
     std::array<std::pair<float, uint32_t>, 3> by_weight = {
         {{1.0f - b.x - b.y, corner[0]}, {b.x, corner[1]}, {b.y, corner[2]}}};

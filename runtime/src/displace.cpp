@@ -3,28 +3,158 @@
 // and every original vertex is put back at its bound point of the refined surface plus its
 // displacement, in the deformed local frame (dss_frame.h, the formula the baker bound with).
 //
-// Normals and tangents: the rotation R = F' · F^T from the rest frame F (Deformable::
-// rest_frames, columns tangent, bitangent, normal) to the deformed frame F' at the bound
-// point carries the authored normal (R·n) and tangent (R·t, w kept). At rest R = I to float
-// rounding, so authored data comes back as authored; under deformation the frame varies
-// smoothly over the refined surface, so the carried normals stay continuous. A primitive
-// without authored normals gets the area-weighted normals of its deformed triangles, the
-// same rule the loader used for its rest normals.
+// Normals and tangents: the rotation R = F' · F^T from the rest frame F (tangent, bitangent,
+// normal) to the deformed frame F' at the bound point carries the authored normal (R·n) and
+// tangent (R·t, w kept). The loader stores the rest vectors in rest-frame coordinates
+// (Deformable::rest_normal_coords, rest_tangent_coords: c = F^T n, unit), so R·n = F'·c =
+// c.x t' + c.y b' + c.z n'. At rest R = I to float rounding, so authored data comes back as
+// authored; under deformation the frame varies smoothly over the refined surface, so the
+// carried normals stay continuous. A primitive without authored normals gets the
+// area-weighted normals of its deformed triangles, the same rule the loader used for its rest
+// normals.
+//
+// The per-vertex loop works in blocks of kBlock dense vertices: one pass gathers the bound
+// triangles' corners into structure-of-arrays scratch on the stack, one branch-free pass
+// evaluates dss_frame.h's formula for the whole block (the compiler vectorises it: plain
+// C++, no intrinsics; sqrt and division are correctly rounded in every lane, so a vertex's
+// bits do not depend on its place in a block), and one pass writes the outputs. The
+// branch-free pass takes the formula's main branch (interpolated normal, tangent from
+// p1 - p0) and flags every vertex whose guards would pick a fallback; those vertices are
+// recomputed with dss::surface_frame itself, fallbacks included. The fast pass normalises
+// by one division and three products where dss_frame.h divides three times: the same
+// vectors to float rounding (the rest pose still reproduces the bake to ~3e-7 of the
+// diagonal). This file is compiled with -fno-math-errno (runtime/CMakeLists.txt): sqrt of a
+// negative number never reaches it, the runtime never reads errno, and GCC only vectorises
+// sqrt without errno.
 #include "instance.h"
 #include "refine.h"
 
+#include <cfloat>
 #include <cmath>
 
 namespace skelform::runtime {
 
 namespace {
 
-glm::mat3 frame_rotation(const dss::SurfaceFrame& frame, const glm::mat3& rest_frame) {
-  return glm::mat3(frame.tangent, frame.bitangent, frame.normal) * glm::transpose(rest_frame);
+constexpr uint32_t kBlock = 64;  // dense vertices per block: ~11 KB of stack scratch
+
+// Structure-of-arrays scratch of one block. [k][i]: component k of vertex i of the block.
+struct Block {
+  float p0[3][kBlock], p1[3][kBlock], p2[3][kBlock];  // bound triangle's refined positions
+  float n0[3][kBlock], n1[3][kBlock], n2[3][kBlock];  // and refined normals
+  float b1[kBlock], b2[kBlock], h[kBlock], rt[kBlock], rb[kBlock];
+  float cn[3][kBlock], ct[3][kBlock];  // rest normal / tangent in rest-frame coordinates
+  float position[3][kBlock], normal[3][kBlock], tangent[3][kBlock];
+  int32_t fast[kBlock];  // 1: the main branch holds, the outputs above are the vertex's
+};
+
+// c in the frame's coordinates: c.x t + c.y b + c.z n (unit for unit c: the frame is
+// orthonormal).
+glm::vec3 in_frame(const dss::SurfaceFrame& frame, const glm::vec3& c) {
+  return c.x * frame.tangent + c.y * frame.bitangent + c.z * frame.normal;
+}
+
+// One vertex through dss_frame.h itself, fallbacks included.
+template <bool kNormals, bool kTangents>
+void exact_vertex(const Deformable& d, const glm::vec3* refined, const glm::vec3* refined_normal, uint32_t v,
+                  const DenseOutput& out) {
+  const dss::SurfaceFrame frame = bound_frame(d, refined, refined_normal, v);
+  out.positions[v] = dss::displaced_point(frame, d.binding_displacement[v], d.binding_residual[v]);
+  if (kNormals) out.normals[v] = in_frame(frame, d.rest_normal_coords[v]);
+  if (kTangents) out.tangents[v] = glm::vec4(in_frame(frame, d.rest_tangent_coords[v]), d.rest_tangents[v].w);
+}
+
+template <bool kNormals, bool kTangents>
+void gather(const Deformable& d, const glm::vec3* refined, const glm::vec3* refined_normal, uint32_t first,
+            uint32_t count, Block& b) {
+  const uint32_t* corner = d.binding_corners.data() + 3 * size_t{first};
+  for (uint32_t i = 0; i < count; ++i, corner += 3) {
+    const uint32_t v = first + i;
+    const glm::vec3 &p0 = refined[corner[0]], &p1 = refined[corner[1]], &p2 = refined[corner[2]];
+    const glm::vec3 &n0 = refined_normal[corner[0]], &n1 = refined_normal[corner[1]], &n2 = refined_normal[corner[2]];
+    for (int k = 0; k < 3; ++k) {
+      b.p0[k][i] = p0[k];
+      b.p1[k][i] = p1[k];
+      b.p2[k][i] = p2[k];
+      b.n0[k][i] = n0[k];
+      b.n1[k][i] = n1[k];
+      b.n2[k][i] = n2[k];
+    }
+    b.b1[i] = d.binding_barycentric[v].x;
+    b.b2[i] = d.binding_barycentric[v].y;
+    b.h[i] = d.binding_displacement[v];
+    b.rt[i] = d.binding_residual[v].x;
+    b.rb[i] = d.binding_residual[v].y;
+    if (kNormals)
+      for (int k = 0; k < 3; ++k) b.cn[k][i] = d.rest_normal_coords[v][k];
+    if (kTangents)
+      for (int k = 0; k < 3; ++k) b.ct[k][i] = d.rest_tangent_coords[v][k];
+  }
+}
+
+// dss::surface_frame's main branch and dss::displaced_point, lane by lane, in the same
+// operation order (normalisation by a reciprocal aside). `fast` is 0 where one of
+// surface_frame's guards fails: interpolated normal of length ≤ 1e-30 or not finite, p1 - p0
+// of length ≤ 1e-30, or its part in the tangent plane ≤ 1e-4 of its length. Those lanes may
+// hold inf/NaN; the caller recomputes them.
+template <bool kNormals, bool kTangents>
+void evaluate(uint32_t count, Block& b) {
+  for (uint32_t i = 0; i < count; ++i) {
+    const float b1 = b.b1[i], b2 = b.b2[i], b0 = 1.0f - b1 - b2;
+    float q[3], m[3], e[3];
+    for (int k = 0; k < 3; ++k) {
+      q[k] = b0 * b.p0[k][i] + b1 * b.p1[k][i] + b2 * b.p2[k][i];
+      m[k] = b0 * b.n0[k][i] + b1 * b.n1[k][i] + b2 * b.n2[k][i];
+      e[k] = b.p1[k][i] - b.p0[k][i];
+    }
+    const float m_length = std::sqrt(m[0] * m[0] + m[1] * m[1] + m[2] * m[2]);
+    const float m_inverse = 1.0f / m_length;
+    const float n[3] = {m[0] * m_inverse, m[1] * m_inverse, m[2] * m_inverse};
+    const float e_length = std::sqrt(e[0] * e[0] + e[1] * e[1] + e[2] * e[2]);
+    const float e_dot_n = e[0] * n[0] + e[1] * n[1] + e[2] * n[2];
+    const float w[3] = {e[0] - e_dot_n * n[0], e[1] - e_dot_n * n[1], e[2] - e_dot_n * n[2]};
+    const float w_length = std::sqrt(w[0] * w[0] + w[1] * w[1] + w[2] * w[2]);
+    const float w_inverse = 1.0f / w_length;
+    const float t[3] = {w[0] * w_inverse, w[1] * w_inverse, w[2] * w_inverse};
+    const float s[3] = {n[1] * t[2] - t[1] * n[2], n[2] * t[0] - t[2] * n[0], n[0] * t[1] - t[0] * n[1]};
+    b.fast[i] = (m_length > 1e-30f) & (m_length <= FLT_MAX) & (e_length > 1e-30f) & (w_length > 1e-4f * e_length);
+    const float h = b.h[i], rt = b.rt[i], rb = b.rb[i];
+    for (int k = 0; k < 3; ++k) b.position[k][i] = q[k] + h * n[k] + rt * t[k] + rb * s[k];
+    if (kNormals) {
+      const float cx = b.cn[0][i], cy = b.cn[1][i], cz = b.cn[2][i];
+      for (int k = 0; k < 3; ++k) b.normal[k][i] = cx * t[k] + cy * s[k] + cz * n[k];
+    }
+    if (kTangents) {
+      const float cx = b.ct[0][i], cy = b.ct[1][i], cz = b.ct[2][i];
+      for (int k = 0; k < 3; ++k) b.tangent[k][i] = cx * t[k] + cy * s[k] + cz * n[k];
+    }
+  }
+}
+
+template <bool kNormals, bool kTangents>
+void displace_vertices(const Deformable& d, const glm::vec3* refined, const glm::vec3* refined_normal,
+                       uint32_t first, uint32_t end, const DenseOutput& out) {
+  Block b;
+  for (uint32_t start = first; start < end; start += kBlock) {
+    const uint32_t count = end - start < kBlock ? end - start : kBlock;
+    gather<kNormals, kTangents>(d, refined, refined_normal, start, count, b);
+    evaluate<kNormals, kTangents>(count, b);
+    for (uint32_t i = 0; i < count; ++i) {
+      const uint32_t v = start + i;
+      if (!b.fast[i]) {
+        exact_vertex<kNormals, kTangents>(d, refined, refined_normal, v, out);
+        continue;
+      }
+      out.positions[v] = glm::vec3(b.position[0][i], b.position[1][i], b.position[2][i]);
+      if (kNormals) out.normals[v] = glm::vec3(b.normal[0][i], b.normal[1][i], b.normal[2][i]);
+      if (kTangents)
+        out.tangents[v] = glm::vec4(b.tangent[0][i], b.tangent[1][i], b.tangent[2][i], d.rest_tangents[v].w);
+    }
+  }
 }
 
 // Area-weighted vertex normals of one primitive's deformed triangles; a vertex they leave at
-// zero (unreferenced or collapsed) takes its rest normal turned by its frame's rotation.
+// zero (unreferenced or collapsed) takes its rest normal carried by its frame's rotation.
 void primitive_face_normals(const Deformable& d, const PrimitiveRecord& primitive, const glm::vec3* refined,
                             const glm::vec3* refined_normal, const DenseOutput& out) {
   const uint32_t first = primitive.first_vertex, end = primitive.first_vertex + primitive.vertex_count;
@@ -43,7 +173,7 @@ void primitive_face_normals(const Deformable& d, const PrimitiveRecord& primitiv
       out.normals[v] /= length;
     } else {
       const dss::SurfaceFrame frame = bound_frame(d, refined, refined_normal, v);
-      out.normals[v] = normalize_or(frame_rotation(frame, d.rest_frames[v]) * d.rest_normals[v], frame.normal);
+      out.normals[v] = in_frame(frame, d.rest_normal_coords[v]);
     }
   }
 }
@@ -59,20 +189,13 @@ void displace(const Deformable& d, const glm::vec3* control, glm::vec3* refined_
     const uint32_t first = primitive.first_vertex, end = primitive.first_vertex + primitive.vertex_count;
     const bool carry_normals = with_normals && primitive.has_normals;
     const bool carry_tangents = with_normals && primitive.has_tangents && out.tangents;
-    for (uint32_t v = first; v < end; ++v) {
-      const dss::SurfaceFrame frame = bound_frame(d, refined_positions, refined_normal_buffer, v);
-      out.positions[v] = dss::displaced_point(frame, d.binding_displacement[v], d.binding_residual[v]);
-      if (carry_normals || carry_tangents) {
-        const glm::mat3 rotation = frame_rotation(frame, d.rest_frames[v]);
-        if (carry_normals) out.normals[v] = normalize_or(rotation * d.rest_normals[v], frame.normal);
-        if (carry_tangents) {
-          const glm::vec4 rest = d.rest_tangents[v];
-          out.tangents[v] = glm::vec4(normalize_or(rotation * glm::vec3(rest), frame.tangent), rest.w);
-        }
-      }
-    }
-    if (with_normals && !primitive.has_normals)
-      primitive_face_normals(d, primitive, refined_positions, refined_normal_buffer, out);
+    const glm::vec3* p = refined_positions;
+    const glm::vec3* n = refined_normal_buffer;
+    if (carry_normals && carry_tangents) displace_vertices<true, true>(d, p, n, first, end, out);
+    else if (carry_normals) displace_vertices<true, false>(d, p, n, first, end, out);
+    else if (carry_tangents) displace_vertices<false, true>(d, p, n, first, end, out);
+    else displace_vertices<false, false>(d, p, n, first, end, out);
+    if (with_normals && !primitive.has_normals) primitive_face_normals(d, primitive, p, n, out);
   }
 }
 

@@ -32,10 +32,12 @@ void refine_positions(const Deformable& deformable, const glm::vec3* control, gl
 void refined_normals(const Deformable& deformable, const glm::vec3* refined, glm::vec3* normals);
 
 // The DSS frame (point q(b), normal n(b), tangent, bitangent) of dense vertex `vertex`'s bound
-// point on the refined mesh given by `refined` positions and their `normals`.
+// point on the refined mesh given by `refined` positions and their `normals`: dss_frame.h
+// exactly, fallbacks included. (displace.cpp evaluates the same formula block-wise and falls
+// back to this for the vertices that need a fallback.) Needs Deformable::binding_corners.
 inline dss::SurfaceFrame bound_frame(const Deformable& deformable, const glm::vec3* refined,
                                      const glm::vec3* normals, uint32_t vertex) {
-  const uint32_t* corner = deformable.refined_indices.data() + 3 * size_t{deformable.binding_triangle[vertex]};
+  const uint32_t* corner = deformable.binding_corners.data() + 3 * size_t{vertex};
   const glm::vec2 b = deformable.binding_barycentric[vertex];
   return dss::surface_frame(refined[corner[0]], refined[corner[1]], refined[corner[2]], normals[corner[0]],
                             normals[corner[1]], normals[corner[2]], b.x, b.y);

@@ -352,12 +352,19 @@ TEST_CASE("the rest evaluation reproduces the original vertices; Fox (no NORMAL)
       }
       const float diagonal = glm::length(high - low);
       float worst = 0;
-      REQUIRE(d.rest_frames.size() == d.vertex_count);
+      REQUIRE(d.binding_corners.size() == 3 * size_t{d.vertex_count});
+      REQUIRE(d.rest_normal_coords.size() == d.vertex_count);
+      REQUIRE(d.rest_tangent_coords.size() == d.vertex_count);
       for (uint32_t v = 0; v < d.vertex_count; ++v) {
         const skelform::dss::SurfaceFrame frame = skelform::runtime::bound_frame(d, refined.data(), normals.data(), v);
         const glm::vec3 p = skelform::dss::displaced_point(frame, d.binding_displacement[v], d.binding_residual[v]);
         worst = std::max(worst, glm::length(p - d.rest_positions[v]));
-        CHECK(d.rest_frames[v][2] == frame.normal);  // columns: tangent, bitangent, normal
+        for (uint32_t k = 0; k < 3; ++k)
+          CHECK(d.binding_corners[3 * size_t{v} + k] == d.refined_indices[3 * size_t{d.binding_triangle[v]} + k]);
+        // The rest normal in rest-frame coordinates carries back to the rest normal.
+        const glm::vec3 c = d.rest_normal_coords[v];
+        const glm::vec3 carried = c.x * frame.tangent + c.y * frame.bitangent + c.z * frame.normal;
+        CHECK(glm::length(carried - glm::normalize(d.rest_normals[v])) < 1e-5f);
         CHECK(d.handle_control_vertex[v] < d.control_vertex_count);
         CHECK(std::abs(glm::length(d.rest_normals[v]) - 1.0f) < 1e-3f);
       }
