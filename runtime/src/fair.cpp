@@ -151,6 +151,11 @@ void gauss_seidel(const FairingTopology& topo, glm::vec3* x, float step, float t
 
 // ---- flow (4) ----------------------------------------------------------------------------
 
+// Flow (4)'s triangle terms into ws.triangle_force, a block of triangles at a time (E_T below).
+constexpr uint32_t kHullBlock = 64;
+void triangle_forces(const FairingTopology& topo, const glm::vec3* skeletal, const float* radius, const glm::vec3* x,
+                     const float* rest_level, uint32_t first, uint32_t count, FairingWorkspace& ws);
+
 // One step of flow (4).
 void fold_step(const FairingTopology& topo, const glm::vec3* skeletal, const float* radius, glm::vec3* x,
                float step, bool semi_implicit, const Targets& targets, FairingWorkspace& ws) {
@@ -158,18 +163,9 @@ void fold_step(const FairingTopology& topo, const glm::vec3* skeletal, const flo
   compute_umbrellas(topo, x, targets, ws);
 
   // E_T(C_j)·∇E_T(C_j) per mesh triangle j against its deformed skeletal triangle T_j.
-  for (uint32_t t = 0; t < topo.triangle_count; ++t) {
-    const uint32_t* corner = topo.triangle_indices.data() + 3 * size_t{t};
-    const glm::vec3 centroid = (x[corner[0]] + x[corner[1]] + x[corner[2]]) / 3.0f;
-    const glm::vec3 centres[3] = {skeletal[corner[0]], skeletal[corner[1]], skeletal[corner[2]]};
-    const float radii[3] = {radius[corner[0]], radius[corner[1]], radius[corner[2]]};
-    glm::vec3 force(0.0f);
-    if (finite(centroid) && finite(centres[0]) && finite(centres[1]) && finite(centres[2])) {
-      const HullDistance e = ball_hull_distance(centroid, centres, radii, ws.hull_case.data() + t);
-      force = (targets.triangle_level ? e.value - targets.triangle_level[t] : e.value) * e.gradient;
-    }
-    ws.triangle_force[t] = finite(force) ? force : glm::vec3(0.0f);
-  }
+  for (uint32_t first = 0; first < topo.triangle_count; first += kHullBlock)
+    triangle_forces(topo, skeletal, radius, x, targets.triangle_level, first,
+                    std::min(kHullBlock, topo.triangle_count - first), ws);
 
   for (uint32_t v = 0; v < vertex_count; ++v) {
     ws.displacement[v] = glm::vec3(0.0f);
@@ -487,12 +483,65 @@ double toward(const dvec3& n, const dvec3& foot, double foot_radius, const dvec3
 
 }  // namespace
 
-HullDistance ball_hull_distance(const glm::vec3& point, const glm::vec3* centres, const float* radii,
-                                uint8_t* hint) {
-  const dvec3 p(point);
-  const dvec3 c[3] = {dvec3(centres[0]), dvec3(centres[1]), dvec3(centres[2])};
-  const double r[3] = {radii[0], radii[1], radii[2]};
+namespace {
 
+// Interior (tangent-plane case) of E_T: at a stationary b the unit n = (P − c(b))/|P − c(b)|
+// obeys n·c_i + r_i = const, i.e. n·e_1 = −δ_1, n·e_2 = −δ_2 (e_i = c_i − c_0, δ_i = r_i − r_0):
+// n = n₀ + σμ m with n₀ in the triangle's plane, m its unit normal, μ = sqrt(1 − |n₀|²), σ the
+// side of P. Then E_T = n·(P − c_0) − r_0 (distance to the tangent plane), valid when the
+// foot Q = P − t n, t = |(P − c_0)·m| / μ, lies in the triangle. φ is convex in b, so such a
+// stationary point is the minimum.
+//
+// Written once, without branches (guards are selects): the scalar E_T and the block-wise one
+// in fold_step evaluate this same function, so both give the same bits; in a block the
+// independent triangles overlap their divisions and square roots (measured: ~5 % of the
+// fairing; GCC does not vectorise it without -fno-trapping-math, which we do not impose on
+// engines that trap floating-point exceptions). Inputs: P − c_0 (w0), e_1, e_2, r_0,
+// δ_1, δ_2. Returns whether the stationary point exists and lies in the triangle.
+inline bool interior_lane(double w0x, double w0y, double w0z, double e1x, double e1y, double e1z, double e2x,
+                          double e2y, double e2z, double r0, double d1, double d2, double& value, double& nx,
+                          double& ny, double& nz) {
+  const double g11 = e1x * e1x + e1y * e1y + e1z * e1z;
+  const double g12 = e1x * e2x + e1y * e2y + e1z * e2z;
+  const double g22 = e2x * e2x + e2y * e2y + e2z * e2z;
+  const double det = g11 * g22 - g12 * g12;  // |e1 × e2|²
+  const bool det_ok = (det > 1e-14 * g11 * g22) & (det > 0.0);
+  const double safe_det = det_ok ? det : 1.0;
+  const double inverse_det = 1.0 / safe_det;  // (reciprocals: one division each, not one per use)
+  const double a = (-d1 * g22 + d2 * g12) * inverse_det;
+  const double b = (-d2 * g11 + d1 * g12) * inverse_det;
+  const double n0x = a * e1x + b * e2x, n0y = a * e1y + b * e2y, n0z = a * e1z + b * e2z;
+  const double q = 1.0 - (n0x * n0x + n0y * n0y + n0z * n0z);
+  const bool q_ok = q > 0.0;
+  const double mu = std::sqrt(q_ok ? q : 1.0);
+  const double inverse_area = 1.0 / std::sqrt(safe_det);
+  const double mx = (e1y * e2z - e1z * e2y) * inverse_area;
+  const double my = (e1z * e2x - e1x * e2z) * inverse_area;
+  const double mz = (e1x * e2y - e1y * e2x) * inverse_area;
+  const double w = w0x * mx + w0y * my + w0z * mz;
+  const double sigma_mu = mu * (w >= 0.0 ? 1.0 : -1.0);
+  nx = n0x + sigma_mu * mx;
+  ny = n0y + sigma_mu * my;
+  nz = n0z + sigma_mu * mz;
+  const double t = std::fabs(w) / mu;
+  const double fx = w0x - t * nx, fy = w0y - t * ny, fz = w0z - t * nz;  // Q − c_0
+  const double f1 = fx * e1x + fy * e1y + fz * e1z, f2 = fx * e2x + fy * e2y + fz * e2z;
+  const double beta1 = (f1 * g22 - f2 * g12) * inverse_det;
+  const double beta2 = (f2 * g11 - f1 * g12) * inverse_det;
+  value = t - (r0 + beta1 * d1 + beta2 * d2);
+  return det_ok & q_ok & (beta1 >= 0.0) & (beta2 >= 0.0) & (beta1 + beta2 <= 1.0);
+}
+
+// The interior candidate as a HullDistance, if it is the minimum and finite.
+bool interior_result(double value, double nx, double ny, double nz, HullDistance& result) {
+  result.value = static_cast<float>(value);
+  result.gradient = glm::vec3(float(nx), float(ny), float(nz));
+  return std::isfinite(result.value) && finite(result.gradient);
+}
+
+// E_T where the minimum is not interior: the hint's candidate if the KKT conditions prove it
+// the minimum, else the smallest of the three vertices and three edge minima.
+HullDistance boundary_distance(const dvec3& p, const dvec3* c, const double* r, uint8_t* hint) {
   // The hint's candidate first. φ is convex in b and differentiable wherever P is off the
   // foot, so a boundary candidate whose derivatives towards the triangle's other corners are
   // all ≥ 0 (the KKT conditions) is the minimum over the whole triangle: the same foot, with
@@ -532,9 +581,9 @@ HullDistance ball_hull_distance(const glm::vec3& point, const glm::vec3* centres
   double best = std::numeric_limits<double>::infinity();
   dvec3 best_gradient(0.0);
   uint8_t best_case = kHullCaseUnknown;
-  // A candidate b in the closed triangle with its foot c(b) and value |P − c(b)| − r(b); the
-  // function is convex in b, so the smallest candidate among {interior stationary point,
-  // each edge's minimum, each vertex} is the minimum.
+  // A candidate b on the triangle's boundary with its foot c(b) and value |P − c(b)| − r(b);
+  // the function is convex in b, so without an interior minimum the smallest candidate among
+  // {each edge's minimum, each vertex} is the minimum.
   auto consider_foot = [&](const dvec3& foot, double foot_radius, uint8_t which) {
     const dvec3 offset = p - foot;
     const double distance = glm::length(offset);
@@ -545,45 +594,6 @@ HullDistance ball_hull_distance(const glm::vec3& point, const glm::vec3* centres
       best_case = which;
     }
   };
-  // Interior (tangent-plane case): at a stationary b the unit n = (P − c(b))/|P − c(b)| obeys
-  // n·c_i + r_i = const, i.e. n·e_1 = −δ_1, n·e_2 = −δ_2 (e_i = c_i − c_0, δ_i = r_i − r_0):
-  // n = n₀ + σμ m with n₀ in the triangle's plane, m its unit normal, μ = sqrt(1 − |n₀|²), σ the
-  // side of P. Then E_T = n·(P − c_0) − r_0 (distance to the tangent plane), valid when the
-  // foot Q = P − t n, t = |(P − c_0)·m| / μ, lies in the triangle.
-  const dvec3 e1 = c[1] - c[0], e2 = c[2] - c[0];
-  const double g11 = glm::dot(e1, e1), g12 = glm::dot(e1, e2), g22 = glm::dot(e2, e2);
-  const double det = g11 * g22 - g12 * g12;  // |e1 × e2|²
-  if (det > 1e-14 * g11 * g22 && det > 0.0) {
-    const double d1 = r[1] - r[0], d2 = r[2] - r[0];
-    const double inverse_det = 1.0 / det;  // (reciprocals: one division each, not one per use)
-    const double a = (-d1 * g22 + d2 * g12) * inverse_det;
-    const double b = (-d2 * g11 + d1 * g12) * inverse_det;
-    const dvec3 n0 = a * e1 + b * e2;
-    const double q = 1.0 - glm::dot(n0, n0);
-    if (q > 0.0) {
-      const double mu = std::sqrt(q);
-      const dvec3 m = glm::cross(e1, e2) * (1.0 / std::sqrt(det));
-      const double w = glm::dot(p - c[0], m);
-      const double sigma = w >= 0.0 ? 1.0 : -1.0;
-      const dvec3 n = n0 + sigma * mu * m;
-      const double t = std::fabs(w) / mu;
-      const dvec3 foot = p - t * n - c[0];
-      const double f1 = glm::dot(foot, e1), f2 = glm::dot(foot, e2);
-      const double beta1 = (f1 * g22 - f2 * g12) * inverse_det;
-      const double beta2 = (f2 * g11 - f1 * g12) * inverse_det;
-      if (beta1 >= 0.0 && beta2 >= 0.0 && beta1 + beta2 <= 1.0) {
-        // φ is convex: a stationary point inside the triangle is its minimum, so the
-        // boundary candidates below need not be evaluated.
-        HullDistance result;
-        result.value = static_cast<float>(t - (r[0] + beta1 * d1 + beta2 * d2));
-        result.gradient = glm::vec3(n);
-        if (std::isfinite(result.value) && finite(result.gradient)) {
-          if (hint) *hint = kHullCaseInterior;
-          return result;
-        }
-      }
-    }
-  }
   for (int i = 0; i < 3; ++i) consider_foot(c[i], r[i], uint8_t(kHullCaseVertex + i));  // the sphere itself
   for (int i = 0; i < 3; ++i) {
     dvec3 foot;
@@ -599,6 +609,76 @@ HullDistance ball_hull_distance(const glm::vec3& point, const glm::vec3* centres
   result.gradient = std::isfinite(best) ? glm::vec3(best_gradient) : glm::vec3(0.0f);
   return result;
 }
+
+}  // namespace
+
+HullDistance ball_hull_distance(const glm::vec3& point, const glm::vec3* centres, const float* radii,
+                                uint8_t* hint) {
+  const dvec3 p(point);
+  const dvec3 c[3] = {dvec3(centres[0]), dvec3(centres[1]), dvec3(centres[2])};
+  const double r[3] = {radii[0], radii[1], radii[2]};
+  const dvec3 w0 = p - c[0], e1 = c[1] - c[0], e2 = c[2] - c[0];
+  double value = 0.0, nx = 0.0, ny = 0.0, nz = 0.0;
+  HullDistance result;
+  if (interior_lane(w0.x, w0.y, w0.z, e1.x, e1.y, e1.z, e2.x, e2.y, e2.z, r[0], r[1] - r[0], r[2] - r[0], value, nx,
+                    ny, nz) &&
+      interior_result(value, nx, ny, nz, result)) {
+    if (hint) *hint = kHullCaseInterior;
+    return result;
+  }
+  return boundary_distance(p, c, r, hint);
+}
+
+namespace {
+
+// E_T(C_j)·∇E_T(C_j) − (rest level) for triangles [first, first + count), count ≤ kHullBlock:
+// the interior candidates of the whole block in one pass (interior_lane), the rest one by one
+// (boundary_distance). Same results as ball_hull_distance per triangle.
+void triangle_forces(const FairingTopology& topo, const glm::vec3* skeletal, const float* radius, const glm::vec3* x,
+                     const float* rest_level, uint32_t first, uint32_t count, FairingWorkspace& ws) {
+  double w0x[kHullBlock], w0y[kHullBlock], w0z[kHullBlock], e1x[kHullBlock], e1y[kHullBlock], e1z[kHullBlock];
+  double e2x[kHullBlock], e2y[kHullBlock], e2z[kHullBlock], r0[kHullBlock], d1[kHullBlock], d2[kHullBlock];
+  double value[kHullBlock], nx[kHullBlock], ny[kHullBlock], nz[kHullBlock];
+  bool inside[kHullBlock];
+  glm::vec3 centroid[kHullBlock];
+  bool usable[kHullBlock];
+  for (uint32_t i = 0; i < count; ++i) {
+    const uint32_t* corner = topo.triangle_indices.data() + 3 * size_t{first + i};
+    centroid[i] = (x[corner[0]] + x[corner[1]] + x[corner[2]]) / 3.0f;
+    const glm::vec3 &s0 = skeletal[corner[0]], &s1 = skeletal[corner[1]], &s2 = skeletal[corner[2]];
+    usable[i] = finite(centroid[i]) && finite(s0) && finite(s1) && finite(s2);
+    // The same conversions as ball_hull_distance: float → double, then differences.
+    const dvec3 c0(usable[i] ? s0 : glm::vec3(0.0f)), p(usable[i] ? centroid[i] : glm::vec3(0.0f));
+    const dvec3 c1(usable[i] ? s1 : glm::vec3(0.0f)), c2(usable[i] ? s2 : glm::vec3(0.0f));
+    w0x[i] = p.x - c0.x, w0y[i] = p.y - c0.y, w0z[i] = p.z - c0.z;
+    e1x[i] = c1.x - c0.x, e1y[i] = c1.y - c0.y, e1z[i] = c1.z - c0.z;
+    e2x[i] = c2.x - c0.x, e2y[i] = c2.y - c0.y, e2z[i] = c2.z - c0.z;
+    const double rr0 = radius[corner[0]], rr1 = radius[corner[1]], rr2 = radius[corner[2]];
+    r0[i] = rr0, d1[i] = rr1 - rr0, d2[i] = rr2 - rr0;
+  }
+  for (uint32_t i = 0; i < count; ++i)
+    inside[i] = interior_lane(w0x[i], w0y[i], w0z[i], e1x[i], e1y[i], e1z[i], e2x[i], e2y[i], e2z[i], r0[i], d1[i],
+                              d2[i], value[i], nx[i], ny[i], nz[i]);
+  for (uint32_t i = 0; i < count; ++i) {
+    const uint32_t t = first + i;
+    glm::vec3 force(0.0f);
+    if (usable[i]) {
+      HullDistance e;
+      if (inside[i] && interior_result(value[i], nx[i], ny[i], nz[i], e)) {
+        ws.hull_case[t] = kHullCaseInterior;
+      } else {
+        const uint32_t* corner = topo.triangle_indices.data() + 3 * size_t{t};
+        const dvec3 c[3] = {dvec3(skeletal[corner[0]]), dvec3(skeletal[corner[1]]), dvec3(skeletal[corner[2]])};
+        const double r[3] = {radius[corner[0]], radius[corner[1]], radius[corner[2]]};
+        e = boundary_distance(dvec3(centroid[i]), c, r, ws.hull_case.data() + t);
+      }
+      force = (rest_level ? e.value - rest_level[t] : e.value) * e.gradient;
+    }
+    ws.triangle_force[t] = finite(force) ? force : glm::vec3(0.0f);
+  }
+}
+
+}  // namespace
 
 // ---- topology, workspace, run ----------------------------------------------------------
 
