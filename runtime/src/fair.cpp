@@ -397,7 +397,13 @@ void intersection_step(const FairingTopology& topo, const Grid& grid, const glm:
     const glm::vec3 gradient = 2.0f * (x[v] - skeletal[field.minimiser]);  // ∇f
     const float d_star = radius[field.minimiser];
     const float denominator = std::max(glm::dot(gradient, gradient), 4.0f * d_star * d_star);
-    const float f = targets.field ? field.f - targets.field[v] : field.f;
+    // Relative to rest, only the penetrating side acts: a vertex deeper inside the union of
+    // balls than at rest (f below its rest value) is pushed out; one standing farther out than
+    // at rest is left to flow (4), which removes protrusions against the vertex's own skeletal
+    // triangles. Pulling it in towards the union of all balls, as the two-sided f∇f does, shrank
+    // the animated models (measured with fair_animation_test: mean |volume change| Fox Survey
+    // 1.58 % two-sided against 0.95 % one-sided, LBS 1.27 %; CesiumMan 2.18 % against 1.51 %).
+    const float f = targets.field ? std::min(field.f - targets.field[v], 0.0f) : field.f;
     if (denominator > 0.0f) ws.displacement[v] = -step * (f / denominator) * gradient;  // −f∇f, normalised
     // W's numerator |f(M) − g(M, S)|: 0 where the vertex's own ball is the minimiser.
     if (field.minimiser != v && finite(skeletal[v])) {

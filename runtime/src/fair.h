@@ -149,8 +149,8 @@ struct FairingWorkspace {
 // vertices sit slightly inside neighbouring balls — so the plain flows would reshape an
 // undeformed character. Each term is therefore taken relative to its rest value: the
 // bilaplacian and umbrella vectors minus the rest ones carried by the vertex's local frame,
-// E_T minus the centroid's rest E_T, f minus the vertex's rest f, |f − g| less its rest
-// value. At rest every force is zero; away from rest the flows act as the paper's on what the
+// E_T minus the centroid's rest E_T, f minus the vertex's rest f (only where that is negative:
+// flow (5) pushes out what sank into the balls, fair.cpp), |f − g| less its rest value. At rest every force is zero; away from rest the flows act as the paper's on what the
 // pose changed. Built once per asset by make_fairing_rest().
 struct FairingRest {
   explicit FairingRest(const AllocatorRef& a)

@@ -11,6 +11,7 @@
 
 #include <cstring>
 #include <map>
+#include <sstream>
 #include <tuple>
 
 namespace {
@@ -73,7 +74,10 @@ struct Instance {
   Instance& operator=(const Instance&) = delete;
 };
 
-void check_animations(const char* relative) {
+// What check_animations() asserts: the per-frame intersection bound, or the mean volume change.
+enum class Property { intersections, volume };
+
+void check_animations(const char* relative, Property property) {
   const skelform::test::RuntimeModel* model = skelform::test::sample_model(relative);
   if (!model) return;
   const skelform::samples::GltfAnimation gltf = skelform::samples::GltfAnimation::load_file(skelform::test::data_file(relative).string());
@@ -104,7 +108,10 @@ void check_animations(const char* relative) {
       iterations += it;
       const TriangleMesh s = posed(surface, skelform::test::write_all(skelform.instance, model->asset).positions);
       const TriangleMesh l = posed(surface, skelform::test::write_all(lbs.instance, model->asset).positions);
-      const size_t sp = skelform::bake::count_self_intersections(s), lp = skelform::bake::count_self_intersections(l);
+      // Counting intersecting pairs is the slow part; the volume check does without it.
+      const bool count = property == Property::intersections;
+      const size_t sp = count ? skelform::bake::count_self_intersections(s) : 0;
+      const size_t lp = count ? skelform::bake::count_self_intersections(l) : 0;
       skelform_pairs += sp;
       lbs_pairs += lp;
       if (sp > lp) {
@@ -116,31 +123,48 @@ void check_animations(const char* relative) {
         lbs_volume += std::fabs(skelform::bake::enclosed_volume(l) / surface.rest_volume - 1.0);
       }
     }
-    MESSAGE(std::string(relative) << " '" << anim.name << "' " << frames << " frames: intersecting pairs skelform " << skelform_pairs
-                     << " / LBS " << lbs_pairs << " (sum over frames), frames where skelform > LBS: " << worse_frames
-                     << " (by at most " << max_excess << "); mean |volume change| skelform "
-                     << 100 * skelform_volume / frames << " % / LBS " << 100 * lbs_volume / frames << " %"
-                     << std::string(surface.closed ? "" : " (not closed: volume not compared)") << "; fairing iterations "
-                     << double(iterations) / frames << " per frame");
-    CHECK(worse_frames == 0);
-    if (surface.closed) CHECK(skelform_volume < lbs_volume);
+    std::ostringstream report;
+    report << relative << " '" << anim.name << "' " << frames << " frames: ";
+    if (property == Property::intersections)
+      report << "intersecting pairs skelform " << skelform_pairs << " / LBS " << lbs_pairs
+             << " (sum over frames), frames where skelform > LBS: " << worse_frames << " (by at most " << max_excess << ")";
+    else if (surface.closed)
+      report << "mean |volume change| skelform " << 100 * skelform_volume / frames << " % / LBS "
+             << 100 * lbs_volume / frames << " %";
+    else
+      report << "not closed: volume not compared";
+    report << "; fairing iterations " << double(iterations) / frames << " per frame";
+    MESSAGE(report.str());
+    if (property == Property::intersections) CHECK(worse_frames == 0);
+    if (property == Property::volume && surface.closed) CHECK(skelform_volume < lbs_volume);
   }
 }
 
 }  // namespace
 
-// The targets, not met yet (see the fairing issue's note): skipped so that CI stays
-// green while the measured figures stay one command away:
+// On the closed models, skelform's mean |volume change| over every animation is below LBS's.
+TEST_CASE("fair animation: CesiumMan at 30 fps - skelform loses less volume than LBS") {
+  check_animations("CesiumMan/CesiumMan.glb", Property::volume);
+}
+TEST_CASE("fair animation: RiggedFigure at 30 fps - skelform loses less volume than LBS") {
+  check_animations("RiggedFigure/RiggedFigure.glb", Property::volume);
+}
+TEST_CASE("fair animation: Fox at 30 fps - skelform loses less volume than LBS") {
+  check_animations("Fox/Fox.glb", Property::volume);
+}
+
+// The intersection target, not met yet (see the fairing issue's note): skipped so that
+// CI stays green while the measured figures stay one command away:
 //   skelform_tests -sf="*fair_animation_test.cpp" --no-skip
 // Remove the skip decorators when they pass; never loosen the checks.
 TEST_CASE("fair animation: CesiumMan at 30 fps - skelform never intersects more than LBS" * doctest::skip()) {
-  check_animations("CesiumMan/CesiumMan.glb");
+  check_animations("CesiumMan/CesiumMan.glb", Property::intersections);
 }
 TEST_CASE("fair animation: RiggedFigure at 30 fps - skelform never intersects more than LBS" * doctest::skip()) {
-  check_animations("RiggedFigure/RiggedFigure.glb");
+  check_animations("RiggedFigure/RiggedFigure.glb", Property::intersections);
 }
 TEST_CASE("fair animation: Fox at 30 fps - skelform never intersects more than LBS" * doctest::skip()) {
-  check_animations("Fox/Fox.glb");
+  check_animations("Fox/Fox.glb", Property::intersections);
 }
 
 namespace {
