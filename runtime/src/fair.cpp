@@ -394,17 +394,33 @@ void intersection_step(const FairingTopology& topo, const Grid& grid, const glm:
       field = {glm::dot(d, d) - radius[s] * radius[s], s};
     }
     if (field.minimiser == std::numeric_limits<uint32_t>::max()) continue;
-    const glm::vec3 gradient = 2.0f * (x[v] - skeletal[field.minimiser]);  // ∇f
-    const float d_star = radius[field.minimiser];
-    const float denominator = std::max(glm::dot(gradient, gradient), 4.0f * d_star * d_star);
-    // Relative to rest, only the penetrating side acts: a vertex deeper inside the union of
-    // balls than at rest (f below its rest value) is pushed out; one standing farther out than
-    // at rest is left to flow (4), which removes protrusions against the vertex's own skeletal
-    // triangles. Pulling it in towards the union of all balls, as the two-sided f∇f does, shrank
-    // the animated models (measured with fair_animation_test: mean |volume change| Fox Survey
-    // 1.58 % two-sided against 0.95 % one-sided, LBS 1.27 %; CesiumMan 2.18 % against 1.51 %).
-    const float f = targets.field ? std::min(field.f - targets.field[v], 0.0f) : field.f;
-    if (denominator > 0.0f) ws.displacement[v] = -step * (f / denominator) * gradient;  // −f∇f, normalised
+    if (!targets.field) {
+      // The paper's −f∇f, ∇f = 2(x − S*), as a Gauss-Newton step towards f = 0.
+      const glm::vec3 gradient = 2.0f * (x[v] - skeletal[field.minimiser]);
+      const float d_star = radius[field.minimiser];
+      const float denominator = std::max(glm::dot(gradient, gradient), 4.0f * d_star * d_star);
+      if (denominator > 0.0f) ws.displacement[v] = -step * (field.f / denominator) * gradient;
+    } else if (field.minimiser != v && finite(skeletal[v]) && targets.gap) {
+      // Relative to rest, flow (5) acts on the penetration h = (f − g_own) − (f − g_own)_rest
+      // where it is negative: the vertex lies deeper in another ball's power cell (S*'s) than
+      // at rest, g_own = g(x, S_v) being its own ball's (the ball it was reconstructed from;
+      // (f − g_own)_rest = −gap_rest). The step goes along ∇h = 2(S_v − S*), towards the
+      // radical plane between the two balls, i.e. back to the vertex's own side, rather than
+      // along ∇f = 2(x − S*) out of S*'s ball: where two limbs press together, pushing each
+      // skin out of the other's balls lays it onto the other's surface, over the other's skin
+      // (measured, intersecting pairs: Fig. 11's ellipsoid bent 90° 40 → 2, the bent capsule
+      // from rest 205 → 131, sample animations' frames above LBS 22 → 19). A vertex standing
+      // farther out than at rest is not pulled in (h > 0 does nothing): that is flow (4)'s, and
+      // pulling towards the union of all balls shrank the animated samples (Fox Survey lost
+      // 1.58 % of its volume, LBS 1.27 %). W's numerator below is the same max(0, −h).
+      const glm::vec3 d = x[v] - skeletal[v];
+      const float own = glm::dot(d, d) - radius[v] * radius[v];
+      const float h = std::min(field.f - own + targets.gap[v], 0.0f);
+      const glm::vec3 gradient = 2.0f * (skeletal[v] - skeletal[field.minimiser]);
+      const float edge = edge_scale(topo, x, ws, v);
+      const float denominator = std::max(glm::dot(gradient, gradient), 4.0f * edge * edge);
+      if (denominator > 0.0f) ws.displacement[v] = -step * (h / denominator) * gradient;
+    }
     // W's numerator |f(M) − g(M, S)|: 0 where the vertex's own ball is the minimiser.
     if (field.minimiser != v && finite(skeletal[v])) {
       const glm::vec3 d = x[v] - skeletal[v];

@@ -78,7 +78,8 @@ struct FairingParams {
   float fold_step = 0.0f;
   // τ₅, the dimensionless time step of flow (5): each step moves a vertex by
   // τ₅ · f∇f / max(|∇f|², 4 d*²) (a Gauss-Newton step toward f = 0, which a plain f∇f step
-  // with length³ units is not) plus τ₅ · W U². 0 = 0.3.
+  // with length³ units is not) plus τ₅ · W U²; relative to rest (FairingRest), h∇h / max(|∇h|²,
+  // 4 e²) with the penetration h of fair.cpp and e the rest edge length. 0 = 0.3.
   float intersection_step = 0.0f;
   // Cells per axis of flow (5)'s grid over the bounding box of skeleton and mesh. 0 = 20
   // (the paper's 20×20×20). Must not exceed the workspace's grid_size.
@@ -149,9 +150,10 @@ struct FairingWorkspace {
 // vertices sit slightly inside neighbouring balls — so the plain flows would reshape an
 // undeformed character. Each term is therefore taken relative to its rest value: the
 // bilaplacian and umbrella vectors minus the rest ones carried by the vertex's local frame,
-// E_T minus the centroid's rest E_T, f minus the vertex's rest f (only where that is negative:
-// flow (5) pushes out what sank into the balls, fair.cpp), |f − g| less its rest value. At rest every force is zero; away from rest the flows act as the paper's on what the
-// pose changed. Built once per asset by make_fairing_rest().
+// E_T minus the centroid's rest E_T, f − g(x, own ball) minus its rest value (flow (5) then
+// acts only where that is negative, towards the radical plane: fair.cpp), |f − g| less its
+// rest value. At rest every force is zero; away from rest the flows act as the paper's on what
+// the pose changed. Built once per asset by make_fairing_rest().
 struct FairingRest {
   explicit FairingRest(const AllocatorRef& a)
       : umbrella(CallbackAllocator<glm::vec3>(a)), bi_umbrella(CallbackAllocator<glm::vec3>(a)),

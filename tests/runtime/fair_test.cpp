@@ -2,6 +2,7 @@
 // their determinism and scale invariance, and the issue's target on a bent, twisted capsule
 // (self-intersections and volume change against LBS).
 #include "fair.h"
+#include "instance.h"
 
 #include "skelform/bake/metrics.h"
 #include "skelform/bake/procedural.h"
@@ -348,10 +349,10 @@ Measured measure(const BentCapsule& scene, const std::vector<glm::vec3>& positio
 }  // namespace
 
 // The issue's target for skelform on this scene: 0 intersecting pairs and |volume change| < 3 %,
-// where LBS shows intersections and volume loss. NOT reached yet (see the messages and the
-// report in the commit): the tubes of the two bones overlap on the inner side of the bend up
-// to ~0.35 from the joint, and flows (4)+(5) as specified leave those global intersections
-// (flow (5) alone makes them worse, as DESIGN.md measured). The checks stay as the target.
+// where LBS shows intersections and volume loss. NOT reached yet (see the messages): the
+// volume is (about −2.1 %), the pairs are not (131, the unfaired reconstruction has 141): the
+// tubes of the two bones overlap on the inner side of the bend up to ~0.35 from the joint and
+// the flows, run from rest as the runtime runs them, leave most of those global intersections.
 // Until the fairing reaches it this case is SKIPPED, not passed (a test that cannot fail
 // proves nothing): measure with
 //   skelform_tests -tc="fair: bent*" --no-skip
@@ -375,30 +376,41 @@ TEST_CASE("fair: bent (120 deg) and twisted (150 deg) capsule: skelform has no s
   Fairing rest_fairing(scene.rest);
   const FairingRest rest = make_fairing_rest(rest_fairing.topology, scene.skeletal_rest.data(), scene.radius.data(),
                                              rest_positions.data(), 20, rest_fairing.workspace, {});
+  // From rest as fair_stage.cpp runs it: calls of kConvergenceChunk iterations, steps
+  // annealed by kAnnealRate per chunk after kAnnealAfter, until the residual is below
+  // kConvergedResidual or kConvergenceIterations are done; frames Procrustes-fitted to rest.
   std::vector<glm::mat3> frames(unfaired.size());
-  fairing_frames(rest_fairing.topology, skeletal.data(), unfaired.data(), frames.data());
+  fairing_frames(rest_fairing.topology, skeletal.data(), unfaired.data(), frames.data(), &rest);
   for (bool semi_implicit : {false, true}) {
     Fairing fairing(scene.rest);
     FairingParams params;
     params.semi_implicit = semi_implicit;
-    params.iterations = 25;
-    params.smoothing_reference = unfaired.data();  // as fair_stage.cpp runs it
+    params.iterations = skelform::runtime::kConvergenceChunk;
+    params.smoothing_reference = unfaired.data();
+    const float fold = semi_implicit ? skelform::runtime::kDefaultFoldStepSemiImplicit
+                                     : skelform::runtime::kDefaultFoldStepExplicit;
     std::vector<glm::vec3> x = unfaired;
     double seconds = 0.0;
-    float residual = 0.0f;
-    for (int round = 1; round <= 6; ++round) {
+    float gain = 1.0f, residual = 0.0f;
+    uint32_t done = 0;
+    while (done < skelform::runtime::kConvergenceIterations) {
+      params.fold_step = fold * gain;
+      params.intersection_step = skelform::runtime::kDefaultIntersectionStep * gain;
       const auto start = std::chrono::steady_clock::now();
       residual = fair_run(fairing.topology, skeletal.data(), scene.radius.data(), x.data(), x.size(), params,
                           fairing.workspace, &rest, frames.data());
       seconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+      done += params.iterations;
       const Measured m = measure(scene, x);
       MESSAGE(std::string(semi_implicit ? "semi-implicit" : "explicit")
-              << " after " << round * params.iterations << " iterations: " << m.intersections << " pairs, volume "
+              << " after " << done << " iterations: " << m.intersections << " pairs, volume "
               << 100 * m.volume_change << " %, residual " << residual);
+      if (residual < skelform::runtime::kConvergedResidual) break;
+      if (done >= skelform::runtime::kAnnealAfter) gain *= skelform::runtime::kAnnealRate;
     }
     const Measured faired = measure(scene, x);
     MESSAGE(std::string(semi_implicit ? "semi-implicit" : "explicit")
-            << ": " << 1e3 * seconds / (6 * params.iterations) << " ms per iteration");
+            << ": " << 1e3 * seconds / done << " ms per iteration");
     CHECK(faired.intersections == 0);
     CHECK(std::fabs(faired.volume_change) < 0.03);
   }
