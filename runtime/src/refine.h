@@ -22,8 +22,10 @@ namespace skelform::runtime {
 
 // Refined vertex v = sum of stencil_weights[s] * control[stencil_indices[s]] over
 // s in [stencil_offsets[v], stencil_offsets[v+1]), each sum started from zero and taken in
-// stencil order (spec "Stencil evaluation"). `control` holds control_vertex_count positions,
-// `refined` refined_vertex_count; they may not alias.
+// stencil order (spec "Stencil evaluation"), read from the grouped copy of the stencils
+// (Deformable::stencil_group_rows: same entries, same order per row, kStencilLanes rows
+// summed side by side). `control` holds control_vertex_count positions, `refined`
+// refined_vertex_count; they may not alias.
 void refine_positions(const Deformable& deformable, const glm::vec3* control, glm::vec3* refined);
 
 // Area-weighted unit vertex normals of the refined mesh (dss::refined_vertex_normals over
