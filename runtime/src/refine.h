@@ -29,7 +29,8 @@ namespace skelform::runtime {
 void refine_positions(const Deformable& deformable, const glm::vec3* control, glm::vec3* refined);
 
 // Area-weighted unit vertex normals of the refined mesh (dss::refined_vertex_normals over
-// refined_indices): the smooth normal field DSS displaces along. `normals` holds
+// refined_indices, to the bit; refine_normals.cpp vectorises its normalisation): the smooth
+// normal field DSS displaces along. `normals` holds
 // refined_vertex_count entries and may not alias `refined`.
 void refined_normals(const Deformable& deformable, const glm::vec3* refined, glm::vec3* normals);
 
