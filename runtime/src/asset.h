@@ -25,6 +25,10 @@ struct PrimitiveRecord {
   bool has_tangents = false;
 };
 
+// Stencil rows refine_positions sums side by side (Deformable::stencil_group_rows): enough
+// independent sums to hide the latency of each one's additions.
+constexpr uint32_t kStencilLanes = 4;
+
 // One baked skinned mesh. "Dense" = the original glTF vertices of all its primitives,
 // concatenated in primitive order (the binding order of the extension).
 struct Deformable {
@@ -37,7 +41,9 @@ struct Deformable {
         skeletal_positions(CallbackAllocator<glm::vec3>(a)), medial_radius(CallbackAllocator<float>(a)),
         control_joints(CallbackAllocator<uint16_t>(a)), control_weights(CallbackAllocator<float>(a)),
         stencil_offsets(CallbackAllocator<uint32_t>(a)), stencil_indices(CallbackAllocator<uint32_t>(a)),
-        stencil_weights(CallbackAllocator<float>(a)), refined_indices(CallbackAllocator<uint32_t>(a)),
+        stencil_weights(CallbackAllocator<float>(a)), stencil_group_rows(CallbackAllocator<uint32_t>(a)),
+        stencil_group_lengths(CallbackAllocator<uint32_t>(a)), stencil_group_indices(CallbackAllocator<uint32_t>(a)),
+        stencil_group_weights(CallbackAllocator<float>(a)), refined_indices(CallbackAllocator<uint32_t>(a)),
         binding_triangle(CallbackAllocator<uint32_t>(a)), binding_barycentric(CallbackAllocator<glm::vec2>(a)),
         binding_displacement(CallbackAllocator<float>(a)), binding_residual(CallbackAllocator<glm::vec2>(a)),
         binding_corners(CallbackAllocator<uint32_t>(a)), rest_normal_coords(CallbackAllocator<glm::vec3>(a)),
@@ -79,9 +85,22 @@ struct Deformable {
   // renumber_refined_vertices); the numbering is internal, the results are the baked ones.
   uint32_t subdivision_level = 0;
   uint32_t refined_vertex_count = 0;
+  // The stencils as loaded (CSR): read while the asset loads, then released (empty once
+  // sf_asset_load returns); the evaluation reads the grouped copy below.
   Array<uint32_t> stencil_offsets;  // refined_vertex_count + 1
   Array<uint32_t> stencil_indices;
   Array<float> stencil_weights;
+  // The same stencils grouped for refine_positions (asset_load.cpp group_stencils): rows of
+  // equal length, kStencilLanes per group, groups in order of length. Group g has
+  // stencil_group_lengths[g] steps; step s holds entry s of each of its rows, lane by lane
+  // (kStencilLanes indices and weights), so a group sums its rows side by side without a
+  // data-dependent loop end. The last group of a length may repeat its last row to fill its
+  // lanes (the row is then computed twice, to the same bits). Costs what the CSR did plus
+  // one row per group (stencil_group_rows) and one length per group.
+  Array<uint32_t> stencil_group_rows;     // kStencilLanes refined vertices per group
+  Array<uint32_t> stencil_group_lengths;  // entries per row, one per group
+  Array<uint32_t> stencil_group_indices;  // control vertices, kStencilLanes per step
+  Array<float> stencil_group_weights;     // their weights, likewise
   Array<uint32_t> refined_indices;  // 3 per refined triangle
 
   // DSS binding of every dense vertex.

@@ -580,11 +580,47 @@ void renumber_refined_vertices(Deformable& deformable) {
   for (uint32_t& index : deformable.refined_indices) index = new_of_old[index];
 }
 
+// Regroups the stencil rows for refine_positions (Deformable::stencil_group_rows): a stable
+// sort of the rows by length, then kStencilLanes rows per group, entries lane-interleaved.
+// Each row keeps its entries in stencil order, so it sums to the same bits as from the CSR;
+// the sums of a group are independent, which hides their addition latency, and the inner
+// loop's trip count is the same group after group (CesiumMan_loop2's rows have 4 to 18
+// entries, in no order).
+void group_stencils(Deformable& deformable) {
+  const uint32_t count = deformable.refined_vertex_count;
+  std::vector<uint32_t> by_length(count);
+  for (uint32_t v = 0; v < count; ++v) by_length[v] = v;
+  const auto length = [&](uint32_t v) { return deformable.stencil_offsets[v + 1] - deformable.stencil_offsets[v]; };
+  std::stable_sort(by_length.begin(), by_length.end(), [&](uint32_t l, uint32_t r) { return length(l) < length(r); });
+  deformable.stencil_group_rows.clear();
+  deformable.stencil_group_lengths.clear();
+  deformable.stencil_group_indices.clear();
+  deformable.stencil_group_weights.clear();
+  for (size_t first = 0; first < count;) {
+    const uint32_t rows_length = length(by_length[first]);
+    uint32_t lanes[kStencilLanes];
+    for (uint32_t lane = 0; lane < kStencilLanes; ++lane) {
+      // A short last group of this length repeats its last row.
+      if (first < count && length(by_length[first]) == rows_length) ++first;
+      lanes[lane] = by_length[first - 1];
+      deformable.stencil_group_rows.push_back(lanes[lane]);
+    }
+    deformable.stencil_group_lengths.push_back(rows_length);
+    for (uint32_t s = 0; s < rows_length; ++s)
+      for (uint32_t lane = 0; lane < kStencilLanes; ++lane) {
+        const uint32_t entry = deformable.stencil_offsets[lanes[lane]] + s;
+        deformable.stencil_group_indices.push_back(deformable.stencil_indices[entry]);
+        deformable.stencil_group_weights.push_back(deformable.stencil_weights[entry]);
+      }
+  }
+}
+
 // The rest evaluation, once: refined rest surface, the corners of every bound triangle, the
 // rest normal and tangent in the frame at every bound point, and the control vertex a handle
 // on each dense vertex moves.
 void derive_rest_data(Deformable& deformable) {
   renumber_refined_vertices(deformable);
+  group_stencils(deformable);
   std::vector<glm::vec3> refined(deformable.refined_vertex_count);
   std::vector<glm::vec3> normals(deformable.refined_vertex_count);
   refine_positions(deformable, deformable.control_positions.data(), refined.data());
@@ -633,6 +669,10 @@ void derive_rest_data(Deformable& deformable) {
     }
     deformable.handle_control_vertex[v] = control;
   }
+  // The evaluation reads the grouped stencils only.
+  Array<uint32_t>(deformable.stencil_offsets.get_allocator()).swap(deformable.stencil_offsets);
+  Array<uint32_t>(deformable.stencil_indices.get_allocator()).swap(deformable.stencil_indices);
+  Array<float>(deformable.stencil_weights.get_allocator()).swap(deformable.stencil_weights);
 }
 
 // The fairing's connectivity and rest values (fair.h), once per deformable.

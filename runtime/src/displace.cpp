@@ -11,7 +11,8 @@
 // authored; under deformation the frame varies smoothly over the refined surface, so the
 // carried normals stay continuous. A primitive without authored normals gets the
 // area-weighted normals of its deformed triangles, the same rule the loader used for its rest
-// normals.
+// normals (normalised block-wise and branch-free like the frames below: same bits as the
+// scalar division).
 //
 // The per-vertex loop works in blocks of kBlock dense vertices: one pass gathers the bound
 // triangles' corners into structure-of-arrays scratch on the stack, one branch-free pass
@@ -167,13 +168,33 @@ void primitive_face_normals(const Deformable& d, const PrimitiveRecord& primitiv
     out.normals[corner[1]] += face;
     out.normals[corner[2]] += face;
   }
-  for (uint32_t v = first; v < end; ++v) {
-    const float length = std::sqrt(glm::dot(out.normals[v], out.normals[v]));
-    if (length > 1e-30f && std::isfinite(length)) {
-      out.normals[v] /= length;
-    } else {
-      const dss::SurfaceFrame frame = bound_frame(d, refined, refined_normal, v);
-      out.normals[v] = in_frame(frame, d.rest_normal_coords[v]);
+  // Normalised in blocks of structure-of-arrays scratch, branch-free, so the square roots and
+  // divisions vectorise (correctly rounded per lane: the scalar loop's bits); the rare vertex
+  // without a usable sum is redone with its frame afterwards.
+  float x[kBlock], y[kBlock], z[kBlock];
+  int32_t usable[kBlock];
+  for (uint32_t start = first; start < end; start += kBlock) {
+    const uint32_t count = end - start < kBlock ? end - start : kBlock;
+    glm::vec3* n = out.normals + start;
+    for (uint32_t i = 0; i < count; ++i) {
+      x[i] = n[i].x;
+      y[i] = n[i].y;
+      z[i] = n[i].z;
+    }
+    for (uint32_t i = 0; i < count; ++i) {
+      const float length = std::sqrt(x[i] * x[i] + y[i] * y[i] + z[i] * z[i]);  // glm::dot's order
+      usable[i] = (length > 1e-30f) & (length <= FLT_MAX);
+      x[i] /= length;
+      y[i] /= length;
+      z[i] /= length;
+    }
+    for (uint32_t i = 0; i < count; ++i) {
+      if (usable[i]) {
+        n[i] = glm::vec3(x[i], y[i], z[i]);
+      } else {
+        const dss::SurfaceFrame frame = bound_frame(d, refined, refined_normal, start + i);
+        n[i] = in_frame(frame, d.rest_normal_coords[start + i]);
+      }
     }
   }
 }

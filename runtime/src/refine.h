@@ -22,12 +22,15 @@ namespace skelform::runtime {
 
 // Refined vertex v = sum of stencil_weights[s] * control[stencil_indices[s]] over
 // s in [stencil_offsets[v], stencil_offsets[v+1]), each sum started from zero and taken in
-// stencil order (spec "Stencil evaluation"). `control` holds control_vertex_count positions,
-// `refined` refined_vertex_count; they may not alias.
+// stencil order (spec "Stencil evaluation"), read from the grouped copy of the stencils
+// (Deformable::stencil_group_rows: same entries, same order per row, kStencilLanes rows
+// summed side by side). `control` holds control_vertex_count positions, `refined`
+// refined_vertex_count; they may not alias.
 void refine_positions(const Deformable& deformable, const glm::vec3* control, glm::vec3* refined);
 
 // Area-weighted unit vertex normals of the refined mesh (dss::refined_vertex_normals over
-// refined_indices): the smooth normal field DSS displaces along. `normals` holds
+// refined_indices, to the bit; refine_normals.cpp vectorises its normalisation): the smooth
+// normal field DSS displaces along. `normals` holds
 // refined_vertex_count entries and may not alias `refined`.
 void refined_normals(const Deformable& deformable, const glm::vec3* refined, glm::vec3* normals);
 

@@ -345,6 +345,11 @@ TEST_CASE("the rest evaluation reproduces the original vertices; Fox (no NORMAL)
       std::vector<glm::vec3> refined(d.refined_vertex_count), normals(d.refined_vertex_count);
       skelform::runtime::refine_positions(d, d.control_positions.data(), refined.data());
       skelform::runtime::refined_normals(d, refined.data(), normals.data());
+      // The runtime's normal pass rearranges the baker's (dss_frame.h) for speed: same bits.
+      std::vector<glm::vec3> baker_normals(d.refined_vertex_count);
+      skelform::dss::refined_vertex_normals(refined.data(), refined.size(), d.refined_indices.data(),
+                                            d.refined_indices.size() / 3, baker_normals.data());
+      CHECK(std::memcmp(normals.data(), baker_normals.data(), normals.size() * sizeof(glm::vec3)) == 0);
       glm::vec3 low(std::numeric_limits<float>::max()), high(-std::numeric_limits<float>::max());
       for (const glm::vec3& p : d.rest_positions) {
         low = glm::min(low, p);
