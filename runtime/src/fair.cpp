@@ -109,9 +109,9 @@ void apply_displacements(const FairingTopology& topo, glm::vec3* x, FairingWorks
       step = glm::vec3(0.0f);
       continue;
     }
-    const float length = glm::length(step);
+    const float squared = glm::dot(step, step);  // (the square root only for steps it shortens)
     const float limit = kMaxStepPerEdge * edge_scale(topo, x, ws, v);
-    if (length > limit) step *= limit / length;
+    if (squared > limit * limit) step *= limit / std::sqrt(squared);
   }
   for (uint32_t v = 0; v < topo.vertex_count; ++v) x[v] += ws.displacement[v];
 }
@@ -378,7 +378,8 @@ void intersection_step(const FairingTopology& topo, const Grid& grid, const glm:
       // minimiser and its neighbours' last minimisers; a minimum that moves along the surface
       // is followed, a new one is found at the vertex's next full search.
       auto consider = [&](uint32_t s) {
-        if (s == none || !finite(skeletal[s]) || !std::isfinite(radius[s])) return;
+        // (s == field.minimiser: already the best, the neighbours' minimisers often coincide)
+        if (s == none || s == field.minimiser || !finite(skeletal[s]) || !std::isfinite(radius[s])) return;
         const glm::vec3 d = x[v] - skeletal[s];
         const float g = glm::dot(d, d) - radius[s] * radius[s];
         if (g < field.f || (g == field.f && s < field.minimiser)) field = {g, s};
@@ -869,12 +870,13 @@ float fair_run(const FairingTopology& topology, const glm::vec3* skeletal, const
       intersection_step(topology, grid, skeletal, radius, positions, intersect, params.semi_implicit, iteration == 0,
                         targets,
                         workspace);
-    float moved = 0.0f;
+    float moved = 0.0f;  // largest squared motion: one square root at the end
     for (size_t v = 0; v < vertex_count; ++v) {
-      const float d = glm::length(positions[v] - workspace.iteration_start[v]);
-      if (std::isfinite(d)) moved = std::max(moved, d);
+      const glm::vec3 d = positions[v] - workspace.iteration_start[v];
+      const float squared = glm::dot(d, d);
+      if (std::isfinite(squared)) moved = std::max(moved, squared);
     }
-    residual = diagonal > 0.0f ? moved / diagonal : 0.0f;
+    residual = diagonal > 0.0f ? std::sqrt(moved) / diagonal : 0.0f;
   }
   return residual;
 }
