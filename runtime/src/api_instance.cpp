@@ -29,6 +29,7 @@ sf_instance::sf_instance(const sf_asset& owner, const Deformable& d)
       fairing_start(CallbackAllocator<glm::vec3>(owner.allocator)),
       fairing_shape(CallbackAllocator<glm::vec3>(owner.allocator)),
       fairing_reference_umbrella(CallbackAllocator<glm::vec3>(owner.allocator)),
+      fairing_mean_edge(CallbackAllocator<float>(owner.allocator)),
       fairing_fixed(CallbackAllocator<uint8_t>(owner.allocator)),
       refined_positions(CallbackAllocator<glm::vec3>(owner.allocator)),
       refined_normals(CallbackAllocator<glm::vec3>(owner.allocator)),
@@ -57,6 +58,7 @@ sf_instance::sf_instance(const sf_asset& owner, const Deformable& d)
   fairing_start.resize(control_count);
   fairing_shape.assign(control_count, glm::vec3(0.0f));
   fairing_reference_umbrella.assign(control_count, glm::vec3(0.0f));
+  fairing_mean_edge.assign(control_count, 0.0f);
   fairing_fixed.assign(control_count, 0);
   refined_positions.resize(d.refined_vertex_count);
   refined_normals.resize(d.refined_vertex_count);

@@ -886,7 +886,7 @@ float fair_run(const FairingTopology& topology, const glm::vec3* skeletal, const
 namespace skelform::runtime {
 
 void fairing_frames(const FairingTopology& topology, const glm::vec3* skeletal, const glm::vec3* positions,
-                    glm::mat3* frames, const FairingRest* rest) {
+                    glm::mat3* frames, const FairingRest* rest, glm::vec3* umbrellas, float* mean_edges) {
   for (uint32_t v = 0; v < topology.vertex_count; ++v) {
     glm::vec3 normal = positions[v] - skeletal[v];
     float length = glm::length(normal);
@@ -917,18 +917,27 @@ void fairing_frames(const FairingTopology& topology, const glm::vec3* skeletal, 
       tangent = glm::normalize(axis - glm::dot(axis, normal) * normal);
     }
     glm::vec3 bitangent = glm::cross(normal, tangent);
-    if (rest && rest->edge_2d.size() == topology.neighbours.size()) {
-      float dot = 0.0f, cross = 0.0f;
-      for (uint32_t k = topology.neighbour_offsets[v]; k < topology.neighbour_offsets[v + 1]; ++k) {
+    const uint32_t begin = topology.neighbour_offsets[v], end = topology.neighbour_offsets[v + 1];
+    const bool procrustes = rest && rest->edge_2d.size() == topology.neighbours.size();
+    if (procrustes || umbrellas || mean_edges) {
+      float dot = 0.0f, cross = 0.0f, edge_sum = 0.0f;
+      glm::vec3 sum(0.0f);
+      for (uint32_t k = begin; k < end; ++k) {
         const glm::vec3 edge = positions[topology.neighbours[k]] - positions[v];
+        if (umbrellas) sum += positions[topology.neighbours[k]];
+        if (mean_edges) edge_sum += glm::length(edge);
+        if (!procrustes) continue;
         const glm::vec2 now(glm::dot(edge, tangent), glm::dot(edge, bitangent));
         const glm::vec2 then = rest->edge_2d[k];
         dot += glm::dot(then, now);
         cross += then.x * now.y - then.y * now.x;
       }
+      const float count = static_cast<float>(end - begin);
+      if (umbrellas) umbrellas[v] = begin == end ? glm::vec3(0.0f) : sum / count - positions[v];  // = umbrella_at
+      if (mean_edges) mean_edges[v] = begin == end ? 0.0f : edge_sum / count;
       // cos and sin of the best angle, atan2(cross, dot), without trigonometry.
       const float length = std::sqrt(dot * dot + cross * cross);
-      if (length > 0.0f && std::isfinite(length)) {
+      if (procrustes && length > 0.0f && std::isfinite(length)) {
         const float inverse = 1.0f / length;
         const float c = dot * inverse, s = cross * inverse;
         const glm::vec3 turned = c * tangent + s * bitangent;

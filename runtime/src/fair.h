@@ -177,8 +177,12 @@ struct FairingRest {
 // tangent is then turned about the normal by the angle that best aligns the one-ring's
 // edges with their rest directions (a 2D Procrustes fit), so a sheared one-ring (a blend
 // zone) does not turn the frame with its first edge alone.
+// Optionally, from the same pass over the one-rings: `umbrellas` U(positions) per vertex
+// (mean of the one-ring − p, exactly as the fairing computes it) and `mean_edges` the mean
+// one-ring edge length per vertex (0 without neighbours); either may be null.
 void fairing_frames(const FairingTopology& topology, const glm::vec3* skeletal, const glm::vec3* positions,
-                    glm::mat3* frames, const struct FairingRest* rest = nullptr);
+                    glm::mat3* frames, const struct FairingRest* rest = nullptr, glm::vec3* umbrellas = nullptr,
+                    float* mean_edges = nullptr);
 
 // Rest targets of `topology` from the rest control mesh, skeletal mesh and radii. Allocates
 // (std::bad_alloc on failure); `workspace` is scratch.

@@ -30,7 +30,10 @@ void fair_stage(sf_instance& instance, const FairStageOptions& options) {
   glm::vec3* x = instance.control.data();
   const glm::vec3* skeletal = instance.skeletal.data();
   glm::mat3* frames = instance.fairing_frames.data();
-  fairing_frames(d.fairing_topology, skeletal, x, frames, &d.fairing_rest);
+  // The frames, and from the same pass U(M) (the smoothing reference's umbrellas, for fair_run)
+  // and the mean edge lengths of M (the pose-jump test's unit).
+  fairing_frames(d.fairing_topology, skeletal, x, frames, &d.fairing_rest, instance.fairing_reference_umbrella.data(),
+                 instance.fairing_mean_edge.data());
 
   // Pose jump: the local shape of M (each umbrella vector in its vertex's frame, in units of
   // the vertex's mean edge length) changed by more than kPoseJumpShape at more than
@@ -43,16 +46,8 @@ void fair_stage(sf_instance& instance, const FairStageOptions& options) {
   for (uint32_t v = 0; v < n; ++v) {
     const uint32_t begin = topo.neighbour_offsets[v], end = topo.neighbour_offsets[v + 1];
     if (begin == end) continue;
-    glm::vec3 mean(0.0f);
-    float edge = 0.0f;
-    for (uint32_t k = begin; k < end; ++k) {
-      mean += x[topo.neighbours[k]];
-      edge += glm::length(x[topo.neighbours[k]] - x[v]);
-    }
-    const float count = static_cast<float>(end - begin);
-    const glm::vec3 umbrella = mean / count - x[v];
-    instance.fairing_reference_umbrella[v] = umbrella;  // U(M), the smoothing reference's, for fair_run
-    const glm::vec3 shape = glm::transpose(frames[v]) * umbrella / std::max(edge / count, 1e-30f);
+    const glm::vec3 shape = glm::transpose(frames[v]) * instance.fairing_reference_umbrella[v] /
+                            std::max(instance.fairing_mean_edge[v], 1e-30f);
     const float change = glm::length(shape - instance.fairing_shape[v]);
     if (!(change <= kPoseJumpShape)) ++changed;  // NaN counts as changed
     instance.fairing_shape[v] = shape;

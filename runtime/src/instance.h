@@ -157,6 +157,7 @@ struct sf_instance {
   skelform::runtime::Array<glm::vec3> fairing_start;  // M before fairing
   skelform::runtime::Array<glm::vec3> fairing_shape;  // U(M) per vertex in its frame (pose-jump test)
   skelform::runtime::Array<glm::vec3> fairing_reference_umbrella;  // U(M) (FairingParams::smoothing_reference_umbrella)
+  skelform::runtime::Array<float> fairing_mean_edge;  // mean one-ring edge length of M (pose-jump test)
   skelform::runtime::Array<uint8_t> fairing_fixed;    // handle driver: vertices kept out of the fairing
   bool has_fairing_offset = false;
   float fairing_gain = 1.0f;  // step scale: halves per evaluation while the pose is held
