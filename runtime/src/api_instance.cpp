@@ -221,10 +221,15 @@ sf_result evaluate(sf_instance& instance, const sf_eval_options& options) {
 }
 
 // Copies one element per vertex from `source` to the caller's strided stream. Only the
-// element bytes are written; the gaps of a larger stride are never touched.
+// element bytes are written; the gaps of a larger stride are never touched. A tightly packed
+// stream (the default stride) is one block copy: the same bytes, without a call per vertex.
 template <class Element>
 void write_stream(float* destination, size_t stride, const Element* source, size_t count) {
   unsigned char* out = reinterpret_cast<unsigned char*>(destination);
+  if (stride == sizeof(Element)) {
+    std::memcpy(out, source, count * sizeof(Element));
+    return;
+  }
   for (size_t i = 0; i < count; ++i) std::memcpy(out + i * stride, &source[i], sizeof(Element));
 }
 
