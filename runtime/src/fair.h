@@ -60,7 +60,7 @@ FairingTopology build_fairing_topology(const uint32_t* triangle_indices, size_t 
 // Default dimensionless steps (FairingParams: 0 = these).
 constexpr float kDefaultFoldStepExplicit = 0.2f;
 constexpr float kDefaultFoldStepSemiImplicit = 0.5f;
-constexpr float kDefaultIntersectionStep = 0.3f;
+constexpr float kDefaultIntersectionStep = 0.15f;
 
 // Parameters of one fair_run(). Zero means the documented default (so a zero-initialised
 // struct is the recommended setting), except the two booleans.
@@ -79,7 +79,7 @@ struct FairingParams {
   // τ₅, the dimensionless time step of flow (5): each step moves a vertex by
   // τ₅ · f∇f / max(|∇f|², 4 d*²) (a Gauss-Newton step toward f = 0, which a plain f∇f step
   // with length³ units is not) plus τ₅ · W U²; relative to rest (FairingRest), h∇h / max(|∇h|²,
-  // 4 e²) with the penetration h of fair.cpp and e the rest edge length. 0 = 0.3.
+  // 4 e²) with the penetration h of fair.cpp and e the rest edge length. 0 = 0.15.
   float intersection_step = 0.0f;
   // Cells per axis of flow (5)'s grid over the bounding box of skeleton and mesh. 0 = 20
   // (the paper's 20×20×20). Must not exceed the workspace's grid_size.

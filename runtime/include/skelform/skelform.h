@@ -273,7 +273,7 @@ typedef struct sf_eval_options {
   uint32_t fairing_flags;      /* SF_FAIR_* bits; 0 = both flows, explicit steps */
   uint32_t fairing_iterations; /* iterations per incremental evaluation; 0 = 2 */
   float fairing_step;          /* τ of flow (4), dimensionless; 0 = 0.2 (explicit) / 0.5 (semi-implicit) */
-  float intersection_step;     /* τ of flow (5), dimensionless; 0 = 0.3 */
+  float intersection_step;     /* τ of flow (5), dimensionless; 0 = 0.15 */
   uint32_t intersection_grid;  /* cells per axis of flow (5)'s grid, 1 .. 32; 0 = 20 (the paper's) */
 } sf_eval_options;
 
