@@ -11,8 +11,8 @@
 // authored; under deformation the frame varies smoothly over the refined surface, so the
 // carried normals stay continuous. A primitive without authored normals gets the
 // area-weighted normals of its deformed triangles, the same rule the loader used for its rest
-// normals (normalised block-wise and branch-free like the frames below: same bits as the
-// scalar division).
+// normals (dss::add_face_normals, then refine.h's normalise_vectors: block-wise and
+// branch-free, the bits of the scalar division).
 //
 // The per-vertex loop works in blocks of kBlock dense vertices: one pass gathers the bound
 // triangles' corners into structure-of-arrays scratch on the stack, one branch-free pass
@@ -160,42 +160,18 @@ void primitive_face_normals(const Deformable& d, const PrimitiveRecord& primitiv
                             const glm::vec3* refined_normal, const DenseOutput& out) {
   const uint32_t first = primitive.first_vertex, end = primitive.first_vertex + primitive.vertex_count;
   for (uint32_t v = first; v < end; ++v) out.normals[v] = glm::vec3(0.0f);
-  const uint32_t* corner = d.dense_triangles.data() + 3 * size_t(primitive.first_triangle);
-  for (uint32_t t = 0; t < primitive.triangle_count; ++t, corner += 3) {
-    const glm::vec3 p0 = out.positions[corner[0]];
-    const glm::vec3 face = glm::cross(out.positions[corner[1]] - p0, out.positions[corner[2]] - p0);
-    out.normals[corner[0]] += face;
-    out.normals[corner[1]] += face;
-    out.normals[corner[2]] += face;
-  }
-  // Normalised in blocks of structure-of-arrays scratch, branch-free, so the square roots and
-  // divisions vectorise (correctly rounded per lane: the scalar loop's bits); the rare vertex
-  // without a usable sum is redone with its frame afterwards.
-  float x[kBlock], y[kBlock], z[kBlock];
-  int32_t usable[kBlock];
+  dss::add_face_normals(out.positions, d.dense_triangles.data() + 3 * size_t(primitive.first_triangle),
+                        primitive.triangle_count, out.normals);
+  // The rare vertex without a usable sum is redone with its frame afterwards.
+  uint8_t usable[kBlock];
   for (uint32_t start = first; start < end; start += kBlock) {
     const uint32_t count = end - start < kBlock ? end - start : kBlock;
-    glm::vec3* n = out.normals + start;
-    for (uint32_t i = 0; i < count; ++i) {
-      x[i] = n[i].x;
-      y[i] = n[i].y;
-      z[i] = n[i].z;
-    }
-    for (uint32_t i = 0; i < count; ++i) {
-      const float length = std::sqrt(x[i] * x[i] + y[i] * y[i] + z[i] * z[i]);  // glm::dot's order
-      usable[i] = (length > 1e-30f) & (length <= FLT_MAX);
-      x[i] /= length;
-      y[i] /= length;
-      z[i] /= length;
-    }
-    for (uint32_t i = 0; i < count; ++i) {
-      if (usable[i]) {
-        n[i] = glm::vec3(x[i], y[i], z[i]);
-      } else {
+    normalise_vectors(out.normals + start, count, usable);
+    for (uint32_t i = 0; i < count; ++i)
+      if (!usable[i]) {
         const dss::SurfaceFrame frame = bound_frame(d, refined, refined_normal, start + i);
-        n[i] = in_frame(frame, d.rest_normal_coords[start + i]);
+        out.normals[start + i] = in_frame(frame, d.rest_normal_coords[start + i]);
       }
-    }
   }
 }
 

@@ -36,16 +36,23 @@ namespace skelform::dss {
 // or whose sums cancel, gets (0, 0, 0); surface_frame falls back for it.
 // `indices` holds 3 * triangle_count vertex indices < vertex_count; `out_normals` holds
 // vertex_count entries and may not alias `positions`.
-inline void refined_vertex_normals(const glm::vec3* positions, size_t vertex_count, const uint32_t* indices,
-                                   size_t triangle_count, glm::vec3* out_normals) {
-  for (size_t v = 0; v < vertex_count; ++v) out_normals[v] = glm::vec3(0.0f);
+// The accumulation half on its own: adds each triangle's (p1 - p0) × (p2 - p0) to `sums` at
+// its three corners, in triangle order (the runtime's block-wise normalisations use it too).
+inline void add_face_normals(const glm::vec3* positions, const uint32_t* indices, size_t triangle_count,
+                             glm::vec3* sums) {
   for (size_t t = 0; t < triangle_count; ++t) {
     const uint32_t i0 = indices[3 * t], i1 = indices[3 * t + 1], i2 = indices[3 * t + 2];
     const glm::vec3 face = glm::cross(positions[i1] - positions[i0], positions[i2] - positions[i0]);
-    out_normals[i0] += face;
-    out_normals[i1] += face;
-    out_normals[i2] += face;
+    sums[i0] += face;
+    sums[i1] += face;
+    sums[i2] += face;
   }
+}
+
+inline void refined_vertex_normals(const glm::vec3* positions, size_t vertex_count, const uint32_t* indices,
+                                   size_t triangle_count, glm::vec3* out_normals) {
+  for (size_t v = 0; v < vertex_count; ++v) out_normals[v] = glm::vec3(0.0f);
+  add_face_normals(positions, indices, triangle_count, out_normals);
   for (size_t v = 0; v < vertex_count; ++v) {
     const float length = std::sqrt(glm::dot(out_normals[v], out_normals[v]));
     // A normal computed from float noise can be tiny but non-zero; normalising it is still

@@ -34,6 +34,13 @@ void refine_positions(const Deformable& deformable, const glm::vec3* control, gl
 // refined_vertex_count entries and may not alias `refined`.
 void refined_normals(const Deformable& deformable, const glm::vec3* refined, glm::vec3* normals);
 
+// Divides each of the `count` vectors by its length, in place, block-wise and branch-free so
+// the square roots and divisions vectorise (correctly rounded per lane: the bits of the scalar
+// v / length). A vector of length ≤ 1e-30 becomes +0 (dss::refined_vertex_normals' rule).
+// With `usable` (count entries): 1 where the length was > 1e-30 and finite, else 0, for a
+// caller with a fallback of its own.
+void normalise_vectors(glm::vec3* vectors, size_t count, uint8_t* usable = nullptr);
+
 // The DSS frame (point q(b), normal n(b), tangent, bitangent) of dense vertex `vertex`'s bound
 // point on the refined mesh given by `refined` positions and their `normals`: dss_frame.h
 // exactly, fallbacks included. (displace.cpp evaluates the same formula block-wise and falls
