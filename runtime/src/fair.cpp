@@ -395,13 +395,17 @@ void intersection_step(const FairingTopology& topo, const Grid& grid, const glm:
       field = {glm::dot(d, d) - radius[s] * radius[s], s};
     }
     if (field.minimiser == std::numeric_limits<uint32_t>::max()) continue;
+    // g(x, S_v) of the vertex's own ball, where another ball is the minimiser (0 is unused).
+    const bool foreign = field.minimiser != v && finite(skeletal[v]);
+    const glm::vec3 to_own = x[v] - skeletal[v];
+    const float own = foreign ? glm::dot(to_own, to_own) - radius[v] * radius[v] : 0.0f;
     if (!targets.field) {
       // The paper's −f∇f, ∇f = 2(x − S*), as a Gauss-Newton step towards f = 0.
       const glm::vec3 gradient = 2.0f * (x[v] - skeletal[field.minimiser]);
       const float d_star = radius[field.minimiser];
       const float denominator = std::max(glm::dot(gradient, gradient), 4.0f * d_star * d_star);
       if (denominator > 0.0f) ws.displacement[v] = -step * (field.f / denominator) * gradient;
-    } else if (field.minimiser != v && finite(skeletal[v]) && targets.gap) {
+    } else if (foreign && targets.gap) {
       // Relative to rest, flow (5) acts on the penetration h = (f − g_own) − (f − g_own)_rest
       // where it is negative: the vertex lies deeper in another ball's power cell (S*'s) than
       // at rest, g_own = g(x, S_v) being its own ball's (the ball it was reconstructed from;
@@ -414,8 +418,6 @@ void intersection_step(const FairingTopology& topo, const Grid& grid, const glm:
       // farther out than at rest is not pulled in (h > 0 does nothing): that is flow (4)'s, and
       // pulling towards the union of all balls shrank the animated samples (Fox Survey lost
       // 1.58 % of its volume, LBS 1.27 %). W's numerator below is the same max(0, −h).
-      const glm::vec3 d = x[v] - skeletal[v];
-      const float own = glm::dot(d, d) - radius[v] * radius[v];
       const float h = std::min(field.f - own + targets.gap[v], 0.0f);
       const glm::vec3 gradient = 2.0f * (skeletal[v] - skeletal[field.minimiser]);
       const float edge = edge_scale(topo, x, ws, v);
@@ -423,9 +425,8 @@ void intersection_step(const FairingTopology& topo, const Grid& grid, const glm:
       if (denominator > 0.0f) ws.displacement[v] = -step * (h / denominator) * gradient;
     }
     // W's numerator |f(M) − g(M, S)|: 0 where the vertex's own ball is the minimiser.
-    if (field.minimiser != v && finite(skeletal[v])) {
-      const glm::vec3 d = x[v] - skeletal[v];
-      float gap = std::fabs(field.f - (glm::dot(d, d) - radius[v] * radius[v]));
+    if (foreign) {
+      float gap = std::fabs(field.f - own);
       if (targets.gap) gap = std::max(0.0f, gap - targets.gap[v]);
       ws.smoothing_weight[v] = std::isfinite(gap) ? gap : 0.0f;
       largest_gap = std::max(largest_gap, ws.smoothing_weight[v]);
@@ -504,10 +505,6 @@ double toward(const dvec3& n, const dvec3& foot, double foot_radius, const dvec3
   return -glm::dot(n, centre - foot) - (radius - foot_radius);
 }
 
-}  // namespace
-
-namespace {
-
 // Interior (tangent-plane case) of E_T: at a stationary b the unit n = (P − c(b))/|P − c(b)|
 // obeys n·c_i + r_i = const, i.e. n·e_1 = −δ_1, n·e_2 = −δ_2 (e_i = c_i − c_0, δ_i = r_i − r_0):
 // n = n₀ + σμ m with n₀ in the triangle's plane, m its unit normal, μ = sqrt(1 − |n₀|²), σ the
@@ -518,8 +515,8 @@ namespace {
 // Written once, without branches (guards are selects): the scalar E_T and the block-wise one
 // in fold_step evaluate this same function, so both give the same bits; in a block the
 // independent triangles overlap their divisions and square roots (measured: ~5 % of the
-// fairing; GCC does not vectorise it without -fno-trapping-math, which we do not impose on
-// engines that trap floating-point exceptions). Inputs: P − c_0 (w0), e_1, e_2, r_0,
+// fairing; GCC 12 does not vectorise it, not even with -fno-trapping-math, which we would not
+// impose on engines that trap floating-point exceptions anyway). Inputs: P − c_0 (w0), e_1, e_2, r_0,
 // δ_1, δ_2. Returns whether the stationary point exists and lies in the triangle.
 inline bool interior_lane(double w0x, double w0y, double w0z, double e1x, double e1y, double e1z, double e2x,
                           double e2y, double e2z, double r0, double d1, double d2, double& value, double& nx,

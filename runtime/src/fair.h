@@ -227,9 +227,9 @@ struct HullDistance {
 };
 //
 // `hint` (optional, one byte per triangle kept across calls): which candidate won last time
-// (kHullCase*). That candidate is tried first and accepted only if it satisfies the KKT
-// conditions of the convex minimisation, i.e. only if it is the minimum; otherwise the full
-// search runs. The result is that of the full search either way (the same foot, computed with
+// (kHullCase*). When the tangent-plane (interior) case does not hold, that edge or vertex is
+// tried before the full boundary search and accepted only if it satisfies the KKT conditions
+// of the convex minimisation, i.e. only if it is the minimum; otherwise the full search runs. The result is that of the full search either way (the same foot, computed with
 // the same arithmetic); the hint only saves time when the foot stays on the same edge or
 // vertex from call to call. Updated on return.
 constexpr uint8_t kHullCaseUnknown = 0;
