@@ -28,28 +28,32 @@ jobs=${JOBS:-$(nproc)}
 apt_packages=(g++ cmake make pkg-config libglm-dev libtinygltf-dev nlohmann-json3-dev libstb-dev libosd-dev
               libeigen3-dev libqhull-dev doctest-dev libmeshoptimizer-dev libbenchmark-dev)
 
+# apt-get install of the given packages (through sudo unless root).
+apt_install() {
+  local sudo=""
+  [ "$(id -u)" -eq 0 ] || sudo="sudo"
+  echo "==> installing: $*"
+  $sudo apt-get update -qq
+  DEBIAN_FRONTEND=noninteractive $sudo apt-get install -y -qq --no-install-recommends "$@"
+}
+
 install_missing_packages() {
   local missing=() p
   for p in "${apt_packages[@]}"; do
     dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
   done
   [ ${#missing[@]} -eq 0 ] && return 0
-  local sudo=""
-  [ "$(id -u)" -eq 0 ] || sudo="sudo"
-  echo "==> installing: ${missing[*]}"
-  $sudo apt-get update -qq
-  DEBIAN_FRONTEND=noninteractive $sudo apt-get install -y -qq --no-install-recommends "${missing[@]}"
+  apt_install "${missing[@]}"
+}
+
+# node and npm from Debian, for the validator and the viewer.
+install_node() {
+  if ! command -v node >/dev/null 2>&1 || ! command -v npm >/dev/null 2>&1; then apt_install nodejs npm; fi
 }
 
 # The Khronos glTF-Validator (npm, pinned in tools/package-lock.json) checks every baked file.
 install_validator() {
-  if ! command -v node >/dev/null 2>&1 || ! command -v npm >/dev/null 2>&1; then
-    local sudo=""
-    [ "$(id -u)" -eq 0 ] || sudo="sudo"
-    echo "==> installing: nodejs npm"
-    $sudo apt-get update -qq
-    DEBIAN_FRONTEND=noninteractive $sudo apt-get install -y -qq --no-install-recommends nodejs npm
-  fi
+  install_node
   if [ ! -d "$root/tools/node_modules/gltf-validator" ]; then
     echo "==> npm ci (tools/: gltf-validator)"
     (cd "$root/tools" && npm ci --no-audit --no-fund --loglevel=error)
@@ -121,13 +125,7 @@ run_main_job() {
 
 # The web viewer (samples/viewer): three.js and playwright-core pinned in its package-lock.json.
 install_viewer() {
-  if ! command -v node >/dev/null 2>&1 || ! command -v npm >/dev/null 2>&1; then
-    local sudo=""
-    [ "$(id -u)" -eq 0 ] || sudo="sudo"
-    echo "==> installing: nodejs npm"
-    $sudo apt-get update -qq
-    DEBIAN_FRONTEND=noninteractive $sudo apt-get install -y -qq --no-install-recommends nodejs npm
-  fi
+  install_node
   if [ ! -d "$root/samples/viewer/node_modules/three" ] || [ ! -d "$root/samples/viewer/node_modules/playwright-core" ]; then
     echo "==> npm ci (samples/viewer: three.js, playwright-core)"
     (cd "$root/samples/viewer" && npm ci --no-audit --no-fund --loglevel=error)
