@@ -18,8 +18,7 @@ if ! command -v node >/dev/null 2>&1 || [ ! -d "$TOOLS/node_modules/gltf-validat
   exit 77
 fi
 rm -rf "$WORK" && mkdir -p "$WORK" || exit 1
-failures=0
-fail() { echo "FAIL: $*"; failures=$((failures + 1)); }
+. "$(dirname "$0")/cli_test_lib.sh"  # failures, fail, expect_failure
 validate() {
   node "$TOOLS/validate-gltf.js" "$1" >"$WORK/validator.txt" 2>&1 || { cat "$WORK/validator.txt"; fail "$1 does not validate"; }
   head -n 1 "$WORK/validator.txt"
@@ -75,18 +74,7 @@ for model in CesiumMan/CesiumMan.glb Fox/Fox.glb RiggedFigure/RiggedFigure.glb; 
 done
 
 # Errors: exit code, exactly one line on stderr, no output file.
-bad() {
-  expected=$1
-  shift
-  rm -f "$WORK/bad.glb"
-  "$ANIMATE" "$@" 2>"$WORK/stderr" >/dev/null
-  code=$?
-  lines=$(wc -l <"$WORK/stderr")
-  if [ "$code" -ne "$expected" ] || [ "$lines" -ne 1 ]; then
-    fail "'$*': exit $code (expected $expected), $lines stderr lines: $(cat "$WORK/stderr")"
-  fi
-  [ ! -e "$WORK/bad.glb" ] || fail "'$*' left an output file"
-}
+bad() { expect_failure "$ANIMATE" "$WORK/bad.glb" "$@"; }
 node "$CHECK" --strip skins "$WORK/character.glb" "$WORK/unskinned.glb" || fail "strip skins"
 printf 'not a model\n' >"$WORK/text.glb"
 bad 3 -q "$WORK/missing.glb" -o "$WORK/bad.glb"

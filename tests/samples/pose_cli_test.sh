@@ -15,8 +15,7 @@ if [ ! -f "$MODEL" ]; then
   exit 77
 fi
 rm -rf "$WORK" && mkdir -p "$WORK" || exit 1
-failures=0
-fail() { echo "FAIL: $*"; failures=$((failures + 1)); }
+. "$(dirname "$0")/cli_test_lib.sh"  # failures, fail, expect_failure
 
 "$BAKE" -q "$MODEL" -o "$WORK/cesium.skf.glb" || { echo "FAIL: bake"; exit 1; }
 
@@ -53,18 +52,7 @@ JSON
 "$POSE" -q "$WORK/cesium.skf.glb" --handles "$WORK/handles.json" -o "$WORK/handles.obj" || fail "--handles"
 
 # Bad arguments: non-zero exit, one line on stderr, no output file.
-bad() {
-  expected=$1
-  shift
-  rm -f "$WORK/bad.obj"
-  "$POSE" "$@" 2>"$WORK/stderr" >/dev/null
-  code=$?
-  lines=$(wc -l <"$WORK/stderr")
-  if [ "$code" -ne "$expected" ] || [ "$lines" -ne 1 ]; then
-    fail "'$*': exit $code (expected $expected), $lines stderr lines: $(cat "$WORK/stderr")"
-  fi
-  [ ! -e "$WORK/bad.obj" ] || fail "'$*' left an output file"
-}
+bad() { expect_failure "$POSE" "$WORK/bad.obj" "$@"; }
 bad 1 "$WORK/cesium.skf.glb" -o "$WORK/bad.obj"
 bad 1 "$WORK/cesium.skf.glb" --rest --anim 0 --time 0 -o "$WORK/bad.obj"
 bad 1 "$WORK/cesium.skf.glb" --rest --method fancy -o "$WORK/bad.obj"
