@@ -10,6 +10,7 @@
 // (the other thigh seen from an inner thigh, the torso seen from the inside of an arm) is
 // excluded by the angle between the vertex normal and the direction from the bone.
 #include "skelform/bake/procedural_rig.h"
+#include "skelform/bake/topology.h"
 
 #include <glm/geometric.hpp>
 #include <glm/gtc/matrix_transform.hpp>
@@ -203,16 +204,10 @@ class GlbBuilder {
 }  // namespace
 
 std::vector<Vec3> vertex_normals(const TriangleMesh& mesh) {
-  std::vector<Vec3> sum(mesh.positions.size(), Vec3(0.0));
-  for (const Triangle& t : mesh.triangles) {
-    const Vec3 face = glm::cross(mesh.positions[t[1]] - mesh.positions[t[0]], mesh.positions[t[2]] - mesh.positions[t[0]]);
-    for (uint32_t v : t) sum[v] += face;  // |face| = 2 × area: area weighting
-  }
-  for (Vec3& n : sum) {
-    const double length = glm::length(n);
-    n = length > 0 ? n / length : Vec3(0.0, 1.0, 0.0);
-  }
-  return sum;
+  std::vector<Vec3> normals = area_weighted_normals(mesh);
+  for (Vec3& n : normals)
+    if (n == Vec3(0.0)) n = Vec3(0.0, 1.0, 0.0);  // no area around the vertex: +y
+  return normals;
 }
 
 std::vector<SkinInfluence> character_skin_weights(const TriangleMesh& mesh, const std::vector<Vec3>& normals,
