@@ -4,6 +4,8 @@
 #include "skelform/bake/bake.h"
 #include "skelform/bake/densify.h"
 #include "skelform/bake/gltf_writer.h"
+#include "skelform/bake/topology.h"
+#include "skelform/bake/weld.h"
 
 #include <tiny_gltf.h>  // the TinyGLTF::TinyGLTF shared library: no TINYGLTF_IMPLEMENTATION here
 
@@ -108,6 +110,16 @@ void write_skinned_glb(const std::string& source_gltf, const skelform::bake::Inp
       lo[c] = std::min(lo[c], double(positions[3 * v + c]));
       hi[c] = std::max(hi[c], double(positions[3 * v + c]));
     }
+  // Smooth normals as an exporter writes them: area-weighted over the welded mesh, so the
+  // copies of a vertex split at a UV seam share one normal.
+  const skelform::bake::WeldedMesh welded = skelform::bake::weld(mesh);
+  const std::vector<skelform::bake::Vec3> welded_normals = skelform::bake::area_weighted_normals(welded.mesh);
+  std::vector<float> normals(3 * n);
+  for (size_t v = 0; v < n; ++v) {
+    const skelform::bake::Vec3& normal = welded_normals[welded.welded_of_original[v]];
+    const bool defined = normal[0] != 0.0 || normal[1] != 0.0 || normal[2] != 0.0;
+    for (int c = 0; c < 3; ++c) normals[3 * v + c] = defined ? static_cast<float>(normal[c]) : (c == 1 ? 1.0f : 0.0f);
+  }
   std::vector<uint32_t> indices;
   indices.reserve(3 * mesh.triangles.size());
   for (const auto& t : mesh.triangles) indices.insert(indices.end(), t.begin(), t.end());
@@ -127,6 +139,8 @@ void write_skinned_glb(const std::string& source_gltf, const skelform::bake::Inp
   model.accessors[static_cast<size_t>(position_accessor)].minValues = lo;
   model.accessors[static_cast<size_t>(position_accessor)].maxValues = hi;
   primitive.attributes["POSITION"] = position_accessor;
+  primitive.attributes["NORMAL"] = append_accessor(model, append_view(model, normals, TINYGLTF_TARGET_ARRAY_BUFFER),
+                                                   TINYGLTF_COMPONENT_TYPE_FLOAT, TINYGLTF_TYPE_VEC3, n);
   primitive.attributes["JOINTS_0"] = append_accessor(model, append_view(model, joints, TINYGLTF_TARGET_ARRAY_BUFFER),
                                                      TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT, TINYGLTF_TYPE_VEC4, n);
   primitive.attributes["WEIGHTS_0"] = append_accessor(model, append_view(model, weights, TINYGLTF_TARGET_ARRAY_BUFFER),

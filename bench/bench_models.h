@@ -21,8 +21,11 @@ std::optional<std::filesystem::path> cesium_man_path();
 std::filesystem::path cache_dir();
 
 // Writes a standard skinned .glb: `source_gltf` with the skinned mesh of `mesh`'s first
-// primitive replaced by one indexed primitive holding `mesh` (POSITION, JOINTS_0, WEIGHTS_0;
-// materials and images dropped). Nodes, skins, inverse bind matrices and animations are kept,
+// primitive replaced by one indexed primitive holding `mesh` (POSITION, NORMAL, JOINTS_0,
+// WEIGHTS_0; materials and images dropped). NORMAL is area-weighted over the welded mesh, the
+// smooth normals an exporter writes: game assets ship authored normals, and the runtime carries
+// authored normals (skelform through the DSS frame, LBS/DQS through the blended transform)
+// where it would otherwise recompute them from the deformed faces. Nodes, skins, inverse bind matrices and animations are kept,
 // so the source's animation poses the new mesh. Written atomically.
 void write_skinned_glb(const std::string& source_gltf, const skelform::bake::InputMesh& mesh,
                        const std::string& output_path);

@@ -15,7 +15,8 @@
 //   skelform-bench --json [--smoke] [--cpu]     one JSON line per mesh:
 //     {"mesh": name, "vertices": n, "ms": {"skelform": .., "skelform_unfaired": ..,
 //      "skelform_semi_implicit": .., "lbs": .., "dqs": .., "delta_mush": ..}}
-//     each figure the median of timed evaluations (--smoke: a handful, for CI); wall time, or
+//     each figure the median of timed evaluations, the methods taking turns frame by frame
+//     (--smoke: a handful, for CI); wall time, or
 //     with --cpu the thread's CPU time (the fairer figure on a loaded machine)
 //
 // Baked models are cached in $TMPDIR/skelform-bench-cache (bench_models.h). Without the
@@ -196,19 +197,28 @@ double now_ms(bool cpu_time) {
   return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now().time_since_epoch()).count();
 }
 
-// Median time of `samples` single evaluations, after one warm-up pass over the poses (the
-// incremental evaluation then runs in its steady state).
-double median_ms(Scene& s, Method method, int samples, bool cpu_time) {
-  for (size_t pose = 0; pose < s.pose_count(); ++pose) s.evaluate(method, pose);
-  std::vector<double> times;
-  for (int i = 0; i < samples; ++i) {
-    const double start = now_ms(cpu_time);
-    s.evaluate(method, static_cast<size_t>(i));
-    times.push_back(now_ms(cpu_time) - start);
-    benchmark::DoNotOptimize(s.positions());
+// Median time of `samples` single evaluations of each method, after one warm-up pass over
+// the poses per method (the incremental evaluation then runs in its steady state). The
+// methods take turns frame by frame (sample i of every method, then sample i + 1), so a
+// machine whose speed drifts during the run (a shared VM, a CPU changing its clock) slows
+// every method alike and the ratios between them hold.
+std::array<double, kMethods.size()> median_ms(Scene& s, int samples, bool cpu_time) {
+  for (Method method : kMethods)
+    for (size_t pose = 0; pose < s.pose_count(); ++pose) s.evaluate(method, pose);
+  std::array<std::vector<double>, kMethods.size()> times;
+  for (int i = 0; i < samples; ++i)
+    for (size_t m = 0; m < kMethods.size(); ++m) {
+      const double start = now_ms(cpu_time);
+      s.evaluate(kMethods[m], static_cast<size_t>(i));
+      times[m].push_back(now_ms(cpu_time) - start);
+      benchmark::DoNotOptimize(s.positions());
+    }
+  std::array<double, kMethods.size()> medians{};
+  for (size_t m = 0; m < kMethods.size(); ++m) {
+    std::nth_element(times[m].begin(), times[m].begin() + times[m].size() / 2, times[m].end());
+    medians[m] = times[m][times[m].size() / 2];
   }
-  std::nth_element(times.begin(), times.begin() + times.size() / 2, times.end());
-  return times[times.size() / 2];
+  return medians;
 }
 
 int run_json(bool smoke, bool cpu_time) {
@@ -220,11 +230,11 @@ int run_json(bool smoke, bool cpu_time) {
   const int samples = smoke ? 5 : 101;
   for (const MeshCase& mesh_case : kMeshes) {
     Scene& s = scene(mesh_case);
+    const std::array<double, kMethods.size()> medians = median_ms(s, samples, cpu_time);
     std::string ms;
-    for (Method method : kMethods) {
+    for (size_t m = 0; m < kMethods.size(); ++m) {
       char item[96];
-      std::snprintf(item, sizeof(item), "%s\"%s\": %.4f", ms.empty() ? "" : ", ", method_name(method),
-                    median_ms(s, method, samples, cpu_time));
+      std::snprintf(item, sizeof(item), "%s\"%s\": %.4f", ms.empty() ? "" : ", ", method_name(kMethods[m]), medians[m]);
       ms += item;
     }
     std::printf("{\"mesh\": \"%s\", \"vertices\": %zu, \"ms\": {%s}}\n", s.name().c_str(), s.vertex_count(), ms.c_str());
