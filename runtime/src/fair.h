@@ -150,16 +150,18 @@ struct FairingWorkspace {
 // vertices sit slightly inside neighbouring balls — so the plain flows would reshape an
 // undeformed character. Each term is therefore taken relative to its rest value: the
 // bilaplacian and umbrella vectors minus the rest ones carried by the vertex's local frame,
-// E_T minus the centroid's rest E_T, f − g(x, own ball) minus its rest value (flow (5) then
-// acts only where that is negative, towards the radical plane: fair.cpp), |f − g| less its
-// rest value. At rest every force is zero; away from rest the flows act as the paper's on what
+// E_T minus the centroid's rest E_T, the power difference to the nearest other ball never
+// below its rest value for that ball, nor below a margin of 0.75 rest edge lengths where it was
+// farther at rest (flow (5) then pushes towards the own side of the radical plane: fair.cpp),
+// |f − g| less its rest value. At rest every force is zero; away from rest the flows act as the paper's on what
 // the pose changed. Built once per asset by make_fairing_rest().
 struct FairingRest {
   explicit FairingRest(const AllocatorRef& a)
       : umbrella(CallbackAllocator<glm::vec3>(a)), bi_umbrella(CallbackAllocator<glm::vec3>(a)),
         triangle_level(CallbackAllocator<float>(a)), field(CallbackAllocator<float>(a)),
         gap(CallbackAllocator<float>(a)), edge_2d(CallbackAllocator<glm::vec2>(a)),
-        mean_edge(CallbackAllocator<float>(a)) {}
+        mean_edge(CallbackAllocator<float>(a)), positions(CallbackAllocator<glm::vec3>(a)),
+        skeletal(CallbackAllocator<glm::vec3>(a)) {}
   Array<glm::vec3> umbrella;     // U(M_rest) per vertex, in its rest local frame (fairing_frames)
   Array<glm::vec3> bi_umbrella;  // U²(M_rest) per vertex, in its rest local frame
   Array<float> triangle_level;   // E_T(C) of every triangle at rest
@@ -168,6 +170,8 @@ struct FairingRest {
   Array<glm::vec2> edge_2d;      // per one-ring entry (topology.neighbours): the rest edge in its
                                  // vertex's rest frame (tangent, bitangent components)
   Array<float> mean_edge;        // mean one-ring edge length per vertex at rest
+  Array<glm::vec3> positions;    // M_rest and S_rest: flow (5) compares a vertex's power
+  Array<glm::vec3> skeletal;     // difference to any ball with its rest value
 };
 
 // Orthonormal frame (columns: tangent, bitangent, normal) per vertex of the control mesh: the
