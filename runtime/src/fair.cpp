@@ -36,6 +36,9 @@ constexpr int kGaussSeidelSweeps = 3;
 // A vertex moves at most this many times its mean incident edge length per step: a safety net
 // against a far-off vertex overshooting (scale-free, so scale invariance is kept).
 constexpr float kMaxStepPerEdge = 0.5f;
+// Relative to rest, flow (4)'s V has its full weight where the medial radius is at least this
+// many rest mean edge lengths, and d / (kRestShapeRadius e) below (fold_step).
+constexpr float kRestShapeRadius = 3.0f;
 // Flow (5) relative to rest keeps a vertex this many rest mean edge lengths on its own side of
 // the radical plane with any ball it was farther from at rest (intersection_step).
 constexpr float kIntersectionMargin = 0.75f;
@@ -123,7 +126,8 @@ void apply_displacements(const FairingTopology& topo, glm::vec3* x, FairingWorks
 
 // Semi-implicit step: solves x' + τ B_v U²(x') = rhs (rhs in ws.start_positions) in place,
 // then turns x' − x into ws.displacement and applies it like an explicit step.
-void implicit_update(const FairingTopology& topo, glm::vec3* x, float step, float tangential_weight,
+// `tangential_weights`: V's weight b per vertex (null: 0, flow (5) has no V).
+void implicit_update(const FairingTopology& topo, glm::vec3* x, float step, const float* tangential_weights,
                      const Targets& targets, FairingWorkspace& ws);
 
 // (I + c B)⁻¹ z for B = a I + b (I − n nᵀ), |n| ≤ 1 (Sherman-Morrison on k I − c b n nᵀ,
@@ -135,7 +139,7 @@ glm::vec3 solve_block(const glm::vec3& z, const glm::vec3& n, float c, float a, 
 }
 
 // Gauss-Seidel sweeps for x' + τ B_v U²(x') = rhs (rhs in ws.start_positions), in place.
-void gauss_seidel(const FairingTopology& topo, glm::vec3* x, float step, float tangential_weight,
+void gauss_seidel(const FairingTopology& topo, glm::vec3* x, float step, const float* tangential_weights,
                   const Targets& targets, FairingWorkspace& ws) {
   for (int sweep = 0; sweep < kGaussSeidelSweeps; ++sweep) {
     for (uint32_t v = 0; v < topo.vertex_count; ++v) {
@@ -145,6 +149,7 @@ void gauss_seidel(const FairingTopology& topo, glm::vec3* x, float step, float t
       if (targets.bi_umbrella) off_diagonal -= targets.bi_umbrella[v];      // relative to rest
       const float a = ws.smoothing_weight[v];
       const glm::vec3& n = ws.force_direction[v];
+      const float tangential_weight = tangential_weights ? tangential_weights[v] : 0.0f;
       // B_v applied to the off-diagonal part: a·r + b·(r − (r·n)n).
       const glm::vec3 b_off = a * off_diagonal + tangential_weight * (off_diagonal - glm::dot(off_diagonal, n) * n);
       const glm::vec3 solved =
@@ -211,7 +216,21 @@ void fold_step(const FairingTopology& topo, const glm::vec3* skeletal, const flo
     // (measured: rest-shape smoothing there pushes the inner side of tight bends into
     // itself on coarse meshes), V keeps restoring the rest shape along the surface.
     const glm::vec3& smooth = targets.reference_bi_umbrella ? ws.bi_reference[v] : bi;
-    ws.displacement[v] = semi_implicit ? -step * force : -step * (alpha * smooth + force + tangential);
+    // V's weight, relative to rest. V restores the rest shape of the vertex's 2-ring (the
+    // bi-umbrella's support) as seen in its local frame. Where the mesh is coarse for the part
+    // it covers, a medial radius d below kRestShapeRadius mean edge lengths, the 2-ring spans a
+    // good part of a limb's cross-section (RiggedFigure's 130-vertex body everywhere; a dense
+    // character's fingers), articulation bends the 2-ring itself, and the rest shape turned by
+    // one frame is no longer the shape to restore: there V is weighted by d / (kRestShapeRadius
+    // e). Measured, frames of the sample animations above LBS / Fig. 11's pairs: weight 1
+    // everywhere 15 / 0; with kRestShapeRadius 2: 10 / 0, 3: 5 / 0, 4: 6 / 0, 6: 8 / 3; a
+    // uniform weight of 0.2: 5 / 11 (Fig. 11 needs V where the mesh is fine). The paper's
+    // (absolute) V keeps weight 1.
+    const float rest_shape_weight =
+        targets.umbrella ? std::min(1.0f, std::max(radius[v], 0.0f) / (kRestShapeRadius * edge)) : 1.0f;
+    ws.tangential_weight[v] = rest_shape_weight;
+    ws.displacement[v] = semi_implicit ? -step * force
+                                       : -step * (alpha * smooth + force + rest_shape_weight * tangential);
   }
 
   if (!semi_implicit) {
@@ -219,7 +238,7 @@ void fold_step(const FairingTopology& topo, const glm::vec3* skeletal, const flo
     return;
   }
   for (uint32_t v = 0; v < vertex_count; ++v) ws.start_positions[v] = x[v] + ws.displacement[v];  // x − τF
-  implicit_update(topo, x, step, 1.0f, targets, ws);
+  implicit_update(topo, x, step, ws.tangential_weight.data(), targets, ws);
 }
 
 // ---- flow (5) ----------------------------------------------------------------------------
@@ -484,14 +503,14 @@ void intersection_step(const FairingTopology& topo, const Grid& grid, const glm:
     return;
   }
   for (uint32_t v = 0; v < vertex_count; ++v) ws.start_positions[v] = x[v] + ws.displacement[v];  // x − τG
-  implicit_update(topo, x, step, 0.0f, targets, ws);
+  implicit_update(topo, x, step, nullptr, targets, ws);
 }
 
-void implicit_update(const FairingTopology& topo, glm::vec3* x, float step, float tangential_weight,
+void implicit_update(const FairingTopology& topo, glm::vec3* x, float step, const float* tangential_weights,
                      const Targets& targets, FairingWorkspace& ws) {
   // ws.umbrella is free now: keep x before the solve there.
   for (uint32_t v = 0; v < topo.vertex_count; ++v) ws.umbrella[v] = x[v];
-  gauss_seidel(topo, x, step, tangential_weight, targets, ws);
+  gauss_seidel(topo, x, step, tangential_weights, targets, ws);
   for (uint32_t v = 0; v < topo.vertex_count; ++v) {
     ws.displacement[v] = x[v] - ws.umbrella[v];
     x[v] = ws.umbrella[v];
@@ -824,6 +843,7 @@ FairingWorkspace make_fairing_workspace(const FairingTopology& topology, uint32_
   ws.displacement.assign(n, glm::vec3(0.0f));
   ws.start_positions.assign(n, glm::vec3(0.0f));
   ws.smoothing_weight.assign(n, 0.0f);
+  ws.tangential_weight.assign(n, 0.0f);
   ws.force_direction.assign(n, glm::vec3(0.0f));
   ws.cell_offsets.assign(cells + 1, 0);
   ws.cell_vertices.assign(n, 0);

@@ -108,6 +108,7 @@ struct FairingWorkspace {
       : umbrella(CallbackAllocator<glm::vec3>(a)), bi_umbrella(CallbackAllocator<glm::vec3>(a)),
         triangle_force(CallbackAllocator<glm::vec3>(a)), displacement(CallbackAllocator<glm::vec3>(a)),
         start_positions(CallbackAllocator<glm::vec3>(a)), smoothing_weight(CallbackAllocator<float>(a)),
+        tangential_weight(CallbackAllocator<float>(a)),
         force_direction(CallbackAllocator<glm::vec3>(a)), cell_offsets(CallbackAllocator<uint32_t>(a)),
         cell_vertices(CallbackAllocator<uint32_t>(a)), cell_max_radius(CallbackAllocator<float>(a)),
         vertex_cell(CallbackAllocator<uint32_t>(a)), target_umbrella(CallbackAllocator<glm::vec3>(a)),
@@ -125,6 +126,7 @@ struct FairingWorkspace {
   Array<glm::vec3> displacement;         // explicit part of one step, per vertex
   Array<glm::vec3> start_positions;      // positions before the step (semi-implicit right side)
   Array<float> smoothing_weight;         // α (flow 4) or W (flow 5) per vertex
+  Array<float> tangential_weight;        // flow (4)'s weight of V per vertex
   Array<glm::vec3> force_direction;      // F/|F| per vertex (flow 4), 0 where F = 0
   Array<uint32_t> cell_offsets;          // grid_size³ + 1: skeletal vertices per cell (CSR)
   Array<uint32_t> cell_vertices;         // vertex_count
@@ -149,7 +151,8 @@ struct FairingWorkspace {
 // not zero, its triangle centroids are not on the envelope of the medial balls and its
 // vertices sit slightly inside neighbouring balls — so the plain flows would reshape an
 // undeformed character. Each term is therefore taken relative to its rest value: the
-// bilaplacian and umbrella vectors minus the rest ones carried by the vertex's local frame,
+// bilaplacian and umbrella vectors minus the rest ones carried by the vertex's local frame
+// (V weighted down where the medial radius is below 3 mean edge lengths: fair.cpp fold_step),
 // E_T minus the centroid's rest E_T, the power difference to the nearest other ball never
 // below its rest value for that ball, nor below a margin of 0.75 rest edge lengths where it was
 // farther at rest (flow (5) then pushes towards the own side of the radical plane: fair.cpp),
