@@ -153,15 +153,15 @@ TEST_CASE("fair animation: Fox at 30 fps - skelform loses less volume than LBS")
   check_animations("Fox/Fox.glb", Property::volume);
 }
 
-// The intersection target. Met on CesiumMan (checked in CI); not met yet on
-// RiggedFigure and Fox (see the fairing issue's note): those are skipped so that CI stays
-// green while the measured figures stay one command away:
+// The intersection target. Met on CesiumMan and RiggedFigure (checked in CI); not met
+// yet on Fox (see the fairing issue's note): that one is skipped so that CI stays green while
+// the measured figures stay one command away:
 //   skelform_tests -sf="*fair_animation_test.cpp" --no-skip
 // Remove the skip decorators when they pass; never loosen the checks.
 TEST_CASE("fair animation: CesiumMan at 30 fps - skelform never intersects more than LBS") {
   check_animations("CesiumMan/CesiumMan.glb", Property::intersections);
 }
-TEST_CASE("fair animation: RiggedFigure at 30 fps - skelform never intersects more than LBS" * doctest::skip()) {
+TEST_CASE("fair animation: RiggedFigure at 30 fps - skelform never intersects more than LBS") {
   check_animations("RiggedFigure/RiggedFigure.glb", Property::intersections);
 }
 TEST_CASE("fair animation: Fox at 30 fps - skelform never intersects more than LBS" * doctest::skip()) {
