@@ -461,8 +461,8 @@ void intersection_step(const FairingTopology& topo, const Grid& grid, const glm:
       //     −1.7 % to −2.6 %, Fox Survey's mean from 1.12 % to 1.18 % (LBS 1.27 %). Capping
       //     the margin at 0.75 d_v (measured after V's weighting in fold_step) took
       //     RiggedFigure's frames above LBS from 3 to 0, the samples' from 5 to 2 (caps at
-      //     0.5 / 0.56 / 1.1 / 1.5 d_v: 6 / 4 / 3 / 6 frames; the capsule and Fig. 11 do not
-      //     change).
+      //     0.19 / 0.38 / 0.56 / 1.1 / 1.5 d_v: 10 / 5 / 4 / 4 / 6 frames; the capsule and
+      //     Fig. 11 do not change).
       // The step goes along ∇Δ, towards the own side (pushing out of S*'s ball along
       // ∇f = 2(x − S*) instead laid each skin onto the other's surface, over the other's skin).
       // A vertex on its own side beyond the margin is not pulled in: that is flow (4)'s, and
