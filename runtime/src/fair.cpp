@@ -527,31 +527,35 @@ void implicit_update(const FairingTopology& topo, glm::vec3* x, float step, cons
 }  // namespace
 
 // ---- E_T ---------------------------------------------------------------------------------
+//
+// In float, like the rest of the runtime's per-frame loops (it ran in double before: measured,
+// the same intersection pairs, volumes and Fig. 11 result on every test scene, and no
+// measurable difference in time). The interior case's degeneracy test is relative,
+// |e1 × e2|² > 1e-6 |e1|² |e2|² (the skeletal triangle's angles above ~0.06°): below that the
+// Gram determinant is float cancellation noise and the boundary candidates decide.
 
 namespace {
-
-using glm::dvec3;
 
 // The foot of the minimum of E_T along the cone frustum of balls i and j = i + 1 (mod 3):
 // with s the arc length along the axis, φ(s) = sqrt((a − s)² + h²) − r_i − k s,
 // k = (r_j − r_i)/L; φ'(s) = 0 at s* = a + k h / sqrt(1 − k²) when |k| < 1 (else one ball
 // contains the other: a vertex wins). False when the edge has no such minimum; `clamped` when
 // s* was clamped to an end (a vertex is then the foot).
-bool edge_foot(const dvec3& p, const dvec3* c, const double* r, int i, dvec3& foot, double& foot_radius,
+bool edge_foot(const glm::vec3& p, const glm::vec3* c, const float* r, int i, glm::vec3& foot, float& foot_radius,
                bool& clamped) {
   const int j = (i + 1) % 3;
-  const dvec3 edge = c[j] - c[i];
-  const double length = glm::length(edge);
-  if (!(length > 0.0)) return false;
-  const double k = (r[j] - r[i]) / length;
-  if (!(std::fabs(k) < 1.0)) return false;
-  const dvec3 axis = edge * (1.0 / length);
-  const dvec3 u = p - c[i];
-  const double a = glm::dot(u, axis);
-  const double h = glm::length(u - a * axis);
-  const double unclamped = a + k * h / std::sqrt(1.0 - k * k);
-  const double s = std::clamp(unclamped, 0.0, length);
-  clamped = !(unclamped > 0.0 && unclamped < length);
+  const glm::vec3 edge = c[j] - c[i];
+  const float length = glm::length(edge);
+  if (!(length > 0.0f)) return false;
+  const float k = (r[j] - r[i]) / length;
+  if (!(std::fabs(k) < 1.0f)) return false;
+  const glm::vec3 axis = edge * (1.0f / length);
+  const glm::vec3 u = p - c[i];
+  const float a = glm::dot(u, axis);
+  const float h = glm::length(u - a * axis);
+  const float unclamped = a + k * h / std::sqrt(1.0f - k * k);
+  const float s = std::clamp(unclamped, 0.0f, length);
+  clamped = !(unclamped > 0.0f && unclamped < length);
   foot = c[i] + s * axis;
   foot_radius = r[i] + k * s;
   return true;
@@ -559,7 +563,7 @@ bool edge_foot(const dvec3& p, const dvec3* c, const double* r, int i, dvec3& fo
 
 // Directional derivative of φ(b) = |P − c(b)| − r(b) at a foot (unit n = (P − foot)/|P − foot|)
 // towards ball m: moving weight to m moves the foot by c_m − foot and its radius by r_m − r.
-double toward(const dvec3& n, const dvec3& foot, double foot_radius, const dvec3& centre, double radius) {
+float toward(const glm::vec3& n, const glm::vec3& foot, float foot_radius, const glm::vec3& centre, float radius) {
   return -glm::dot(n, centre - foot) - (radius - foot_radius);
 }
 
@@ -576,42 +580,42 @@ double toward(const dvec3& n, const dvec3& foot, double foot_radius, const dvec3
 // fairing; GCC 12 does not vectorise it, not even with -fno-trapping-math, which we would not
 // impose on engines that trap floating-point exceptions anyway). Inputs: P − c_0 (w0), e_1, e_2, r_0,
 // δ_1, δ_2. Returns whether the stationary point exists and lies in the triangle.
-inline bool interior_lane(double w0x, double w0y, double w0z, double e1x, double e1y, double e1z, double e2x,
-                          double e2y, double e2z, double r0, double d1, double d2, double& value, double& nx,
-                          double& ny, double& nz) {
-  const double g11 = e1x * e1x + e1y * e1y + e1z * e1z;
-  const double g12 = e1x * e2x + e1y * e2y + e1z * e2z;
-  const double g22 = e2x * e2x + e2y * e2y + e2z * e2z;
-  const double det = g11 * g22 - g12 * g12;  // |e1 × e2|²
-  const bool det_ok = (det > 1e-14 * g11 * g22) & (det > 0.0);
-  const double safe_det = det_ok ? det : 1.0;
-  const double inverse_det = 1.0 / safe_det;  // (reciprocals: one division each, not one per use)
-  const double a = (-d1 * g22 + d2 * g12) * inverse_det;
-  const double b = (-d2 * g11 + d1 * g12) * inverse_det;
-  const double n0x = a * e1x + b * e2x, n0y = a * e1y + b * e2y, n0z = a * e1z + b * e2z;
-  const double q = 1.0 - (n0x * n0x + n0y * n0y + n0z * n0z);
-  const bool q_ok = q > 0.0;
-  const double mu = std::sqrt(q_ok ? q : 1.0);
-  const double inverse_area = 1.0 / std::sqrt(safe_det);
-  const double mx = (e1y * e2z - e1z * e2y) * inverse_area;
-  const double my = (e1z * e2x - e1x * e2z) * inverse_area;
-  const double mz = (e1x * e2y - e1y * e2x) * inverse_area;
-  const double w = w0x * mx + w0y * my + w0z * mz;
-  const double sigma_mu = mu * (w >= 0.0 ? 1.0 : -1.0);
+inline bool interior_lane(float w0x, float w0y, float w0z, float e1x, float e1y, float e1z, float e2x,
+                          float e2y, float e2z, float r0, float d1, float d2, float& value, float& nx,
+                          float& ny, float& nz) {
+  const float g11 = e1x * e1x + e1y * e1y + e1z * e1z;
+  const float g12 = e1x * e2x + e1y * e2y + e1z * e2z;
+  const float g22 = e2x * e2x + e2y * e2y + e2z * e2z;
+  const float det = g11 * g22 - g12 * g12;  // |e1 × e2|²
+  const bool det_ok = (det > 1e-6f * g11 * g22) & (det > 0.0f);
+  const float safe_det = det_ok ? det : 1.0f;
+  const float inverse_det = 1.0f / safe_det;  // (reciprocals: one division each, not one per use)
+  const float a = (-d1 * g22 + d2 * g12) * inverse_det;
+  const float b = (-d2 * g11 + d1 * g12) * inverse_det;
+  const float n0x = a * e1x + b * e2x, n0y = a * e1y + b * e2y, n0z = a * e1z + b * e2z;
+  const float q = 1.0f - (n0x * n0x + n0y * n0y + n0z * n0z);
+  const bool q_ok = q > 0.0f;
+  const float mu = std::sqrt(q_ok ? q : 1.0f);
+  const float inverse_area = 1.0f / std::sqrt(safe_det);
+  const float mx = (e1y * e2z - e1z * e2y) * inverse_area;
+  const float my = (e1z * e2x - e1x * e2z) * inverse_area;
+  const float mz = (e1x * e2y - e1y * e2x) * inverse_area;
+  const float w = w0x * mx + w0y * my + w0z * mz;
+  const float sigma_mu = mu * (w >= 0.0f ? 1.0f : -1.0f);
   nx = n0x + sigma_mu * mx;
   ny = n0y + sigma_mu * my;
   nz = n0z + sigma_mu * mz;
-  const double t = std::fabs(w) / mu;
-  const double fx = w0x - t * nx, fy = w0y - t * ny, fz = w0z - t * nz;  // Q − c_0
-  const double f1 = fx * e1x + fy * e1y + fz * e1z, f2 = fx * e2x + fy * e2y + fz * e2z;
-  const double beta1 = (f1 * g22 - f2 * g12) * inverse_det;
-  const double beta2 = (f2 * g11 - f1 * g12) * inverse_det;
+  const float t = std::fabs(w) / mu;
+  const float fx = w0x - t * nx, fy = w0y - t * ny, fz = w0z - t * nz;  // Q − c_0
+  const float f1 = fx * e1x + fy * e1y + fz * e1z, f2 = fx * e2x + fy * e2y + fz * e2z;
+  const float beta1 = (f1 * g22 - f2 * g12) * inverse_det;
+  const float beta2 = (f2 * g11 - f1 * g12) * inverse_det;
   value = t - (r0 + beta1 * d1 + beta2 * d2);
-  return det_ok & q_ok & (beta1 >= 0.0) & (beta2 >= 0.0) & (beta1 + beta2 <= 1.0);
+  return det_ok & q_ok & (beta1 >= 0.0f) & (beta2 >= 0.0f) & (beta1 + beta2 <= 1.0f);
 }
 
 // The interior candidate as a HullDistance, if it is the minimum and finite.
-bool interior_result(double value, double nx, double ny, double nz, HullDistance& result) {
+bool interior_result(float value, float nx, float ny, float nz, HullDistance& result) {
   result.value = static_cast<float>(value);
   result.gradient = glm::vec3(float(nx), float(ny), float(nz));
   return std::isfinite(result.value) && finite(result.gradient);
@@ -619,7 +623,7 @@ bool interior_result(double value, double nx, double ny, double nz, HullDistance
 
 // E_T where the minimum is not interior: the hint's candidate if the KKT conditions prove it
 // the minimum, else the smallest of the three vertices and three edge minima.
-HullDistance boundary_distance(const dvec3& p, const dvec3* c, const double* r, uint8_t* hint) {
+HullDistance boundary_distance(const glm::vec3& p, const glm::vec3* c, const float* r, uint8_t* hint) {
   // The hint's candidate first. φ is convex in b and differentiable wherever P is off the
   // foot, so a boundary candidate whose derivatives towards the triangle's other corners are
   // all ≥ 0 (the KKT conditions) is the minimum over the whole triangle: the same foot, with
@@ -627,8 +631,8 @@ HullDistance boundary_distance(const dvec3& p, const dvec3* c, const double* r, 
   if (hint && *hint >= kHullCaseVertex && *hint < kHullCaseVertex + 6) {
     const int which = *hint - kHullCaseVertex;  // 0..2 a vertex, 3..5 an edge
     const int i = which % 3;
-    dvec3 foot;
-    double foot_radius = 0.0;
+    glm::vec3 foot;
+    float foot_radius = 0.0f;
     bool clamped = false;
     bool valid = true;
     if (which < 3) {
@@ -638,14 +642,14 @@ HullDistance boundary_distance(const dvec3& p, const dvec3* c, const double* r, 
       valid = edge_foot(p, c, r, i, foot, foot_radius, clamped) && !clamped;
     }
     if (valid) {
-      const dvec3 offset = p - foot;
-      const double distance = glm::length(offset);
-      if (distance > 0.0) {
-        const dvec3 n = offset * (1.0 / distance);
+      const glm::vec3 offset = p - foot;
+      const float distance = glm::length(offset);
+      if (distance > 0.0f) {
+        const glm::vec3 n = offset * (1.0f / distance);
         const int j = (i + 1) % 3, k = (i + 2) % 3;
-        const bool minimum = which < 3 ? toward(n, foot, foot_radius, c[j], r[j]) >= 0.0 &&
-                                             toward(n, foot, foot_radius, c[k], r[k]) >= 0.0
-                                       : toward(n, foot, foot_radius, c[k], r[k]) >= 0.0;
+        const bool minimum = which < 3 ? toward(n, foot, foot_radius, c[j], r[j]) >= 0.0f &&
+                                             toward(n, foot, foot_radius, c[k], r[k]) >= 0.0f
+                                       : toward(n, foot, foot_radius, c[k], r[k]) >= 0.0f;
         if (minimum) {
           HullDistance result;
           result.value = static_cast<float>(distance - foot_radius);
@@ -656,26 +660,26 @@ HullDistance boundary_distance(const dvec3& p, const dvec3* c, const double* r, 
     }
   }
 
-  double best = std::numeric_limits<double>::infinity();
-  dvec3 best_gradient(0.0);
+  float best = std::numeric_limits<float>::infinity();
+  glm::vec3 best_gradient(0.0f);
   uint8_t best_case = kHullCaseUnknown;
   // A candidate b on the triangle's boundary with its foot c(b) and value |P − c(b)| − r(b);
   // the function is convex in b, so without an interior minimum the smallest candidate among
   // {each edge's minimum, each vertex} is the minimum.
-  auto consider_foot = [&](const dvec3& foot, double foot_radius, uint8_t which) {
-    const dvec3 offset = p - foot;
-    const double distance = glm::length(offset);
-    const double value = distance - foot_radius;
+  auto consider_foot = [&](const glm::vec3& foot, float foot_radius, uint8_t which) {
+    const glm::vec3 offset = p - foot;
+    const float distance = glm::length(offset);
+    const float value = distance - foot_radius;
     if (value < best) {
       best = value;
-      best_gradient = distance > 0.0 ? offset * (1.0 / distance) : dvec3(0.0);
+      best_gradient = distance > 0.0f ? offset * (1.0f / distance) : glm::vec3(0.0f);
       best_case = which;
     }
   };
   for (int i = 0; i < 3; ++i) consider_foot(c[i], r[i], uint8_t(kHullCaseVertex + i));  // the sphere itself
   for (int i = 0; i < 3; ++i) {
-    dvec3 foot;
-    double foot_radius = 0.0;
+    glm::vec3 foot;
+    float foot_radius = 0.0f;
     bool clamped = false;
     if (edge_foot(p, c, r, i, foot, foot_radius, clamped))
       consider_foot(foot, foot_radius, uint8_t(kHullCaseVertex + 3 + i));
@@ -692,11 +696,11 @@ HullDistance boundary_distance(const dvec3& p, const dvec3* c, const double* r, 
 
 HullDistance ball_hull_distance(const glm::vec3& point, const glm::vec3* centres, const float* radii,
                                 uint8_t* hint) {
-  const dvec3 p(point);
-  const dvec3 c[3] = {dvec3(centres[0]), dvec3(centres[1]), dvec3(centres[2])};
-  const double r[3] = {radii[0], radii[1], radii[2]};
-  const dvec3 w0 = p - c[0], e1 = c[1] - c[0], e2 = c[2] - c[0];
-  double value = 0.0, nx = 0.0, ny = 0.0, nz = 0.0;
+  const glm::vec3& p = point;
+  const glm::vec3* c = centres;
+  const float* r = radii;
+  const glm::vec3 w0 = p - c[0], e1 = c[1] - c[0], e2 = c[2] - c[0];
+  float value = 0.0f, nx = 0.0f, ny = 0.0f, nz = 0.0f;
   HullDistance result;
   if (interior_lane(w0.x, w0.y, w0.z, e1.x, e1.y, e1.z, e2.x, e2.y, e2.z, r[0], r[1] - r[0], r[2] - r[0], value, nx,
                     ny, nz) &&
@@ -714,9 +718,9 @@ namespace {
 // (boundary_distance). Same results as ball_hull_distance per triangle.
 void triangle_forces(const FairingTopology& topo, const glm::vec3* skeletal, const float* radius, const glm::vec3* x,
                      const float* rest_level, uint32_t first, uint32_t count, FairingWorkspace& ws) {
-  double w0x[kHullBlock], w0y[kHullBlock], w0z[kHullBlock], e1x[kHullBlock], e1y[kHullBlock], e1z[kHullBlock];
-  double e2x[kHullBlock], e2y[kHullBlock], e2z[kHullBlock], r0[kHullBlock], d1[kHullBlock], d2[kHullBlock];
-  double value[kHullBlock], nx[kHullBlock], ny[kHullBlock], nz[kHullBlock];
+  float w0x[kHullBlock], w0y[kHullBlock], w0z[kHullBlock], e1x[kHullBlock], e1y[kHullBlock], e1z[kHullBlock];
+  float e2x[kHullBlock], e2y[kHullBlock], e2z[kHullBlock], r0[kHullBlock], d1[kHullBlock], d2[kHullBlock];
+  float value[kHullBlock], nx[kHullBlock], ny[kHullBlock], nz[kHullBlock];
   bool inside[kHullBlock];
   glm::vec3 centroid[kHullBlock];
   bool usable[kHullBlock];
@@ -725,13 +729,13 @@ void triangle_forces(const FairingTopology& topo, const glm::vec3* skeletal, con
     centroid[i] = (x[corner[0]] + x[corner[1]] + x[corner[2]]) / 3.0f;
     const glm::vec3 &s0 = skeletal[corner[0]], &s1 = skeletal[corner[1]], &s2 = skeletal[corner[2]];
     usable[i] = finite(centroid[i]) && finite(s0) && finite(s1) && finite(s2);
-    // The same conversions as ball_hull_distance: float → double, then differences.
-    const dvec3 c0(usable[i] ? s0 : glm::vec3(0.0f)), p(usable[i] ? centroid[i] : glm::vec3(0.0f));
-    const dvec3 c1(usable[i] ? s1 : glm::vec3(0.0f)), c2(usable[i] ? s2 : glm::vec3(0.0f));
+    // The same differences as ball_hull_distance.
+    const glm::vec3 c0(usable[i] ? s0 : glm::vec3(0.0f)), p(usable[i] ? centroid[i] : glm::vec3(0.0f));
+    const glm::vec3 c1(usable[i] ? s1 : glm::vec3(0.0f)), c2(usable[i] ? s2 : glm::vec3(0.0f));
     w0x[i] = p.x - c0.x, w0y[i] = p.y - c0.y, w0z[i] = p.z - c0.z;
     e1x[i] = c1.x - c0.x, e1y[i] = c1.y - c0.y, e1z[i] = c1.z - c0.z;
     e2x[i] = c2.x - c0.x, e2y[i] = c2.y - c0.y, e2z[i] = c2.z - c0.z;
-    const double rr0 = radius[corner[0]], rr1 = radius[corner[1]], rr2 = radius[corner[2]];
+    const float rr0 = radius[corner[0]], rr1 = radius[corner[1]], rr2 = radius[corner[2]];
     r0[i] = rr0, d1[i] = rr1 - rr0, d2[i] = rr2 - rr0;
   }
   for (uint32_t i = 0; i < count; ++i)
@@ -746,9 +750,9 @@ void triangle_forces(const FairingTopology& topo, const glm::vec3* skeletal, con
         ws.hull_case[t] = kHullCaseInterior;
       } else {
         const uint32_t* corner = topo.triangle_indices.data() + 3 * size_t{t};
-        const dvec3 c[3] = {dvec3(skeletal[corner[0]]), dvec3(skeletal[corner[1]]), dvec3(skeletal[corner[2]])};
-        const double r[3] = {radius[corner[0]], radius[corner[1]], radius[corner[2]]};
-        e = boundary_distance(dvec3(centroid[i]), c, r, ws.hull_case.data() + t);
+        const glm::vec3 c[3] = {skeletal[corner[0]], skeletal[corner[1]], skeletal[corner[2]]};
+        const float r[3] = {radius[corner[0]], radius[corner[1]], radius[corner[2]]};
+        e = boundary_distance(glm::vec3(centroid[i]), c, r, ws.hull_case.data() + t);
       }
       force = (rest_level ? e.value - rest_level[t] : e.value) * e.gradient;
     }
