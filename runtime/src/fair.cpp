@@ -52,7 +52,6 @@ struct Targets {
   const glm::vec3* umbrella = nullptr;
   const glm::vec3* bi_umbrella = nullptr;
   const float* triangle_level = nullptr;
-  const float* field = nullptr;
   const float* gap = nullptr;
   const glm::vec3* reference_bi_umbrella = nullptr;  // U² of the unfaired reconstruction
   const glm::vec3* rest_positions = nullptr;         // M and S at rest (flow (5)'s margin)
@@ -485,7 +484,7 @@ void intersection_step(const FairingTopology& topo, const Grid& grid, const glm:
     // its rest depth.
     if (foreign) {
       float gap = relative ? std::max(0.0f, own - field.f) : std::fabs(field.f - own);
-      if (relative && targets.gap) gap = std::max(0.0f, gap - targets.gap[v]);
+      if (targets.gap) gap = std::max(0.0f, gap - targets.gap[v]);
       ws.smoothing_weight[v] = std::isfinite(gap) ? gap : 0.0f;
       largest_gap = std::max(largest_gap, ws.smoothing_weight[v]);
     }
@@ -913,7 +912,7 @@ float fair_run(const FairingTopology& topology, const glm::vec3* skeletal, const
       workspace.target_bi_umbrella[v] = frames[v] * rest->bi_umbrella[v];
     }
     targets = {workspace.target_umbrella.data(), workspace.target_bi_umbrella.data(), rest->triangle_level.data(),
-               rest->field.data(), rest->gap.data(),
+               rest->gap.data(),
                params.smoothing_reference ? workspace.reference_bi.data() : nullptr,
                rest->positions.size() == vertex_count ? rest->positions.data() : nullptr,
                rest->skeletal.size() == vertex_count ? rest->skeletal.data() : nullptr};
@@ -1042,7 +1041,6 @@ FairingRest make_fairing_rest(const FairingTopology& topology, const glm::vec3* 
     const float radii[3] = {radius[corner[0]], radius[corner[1]], radius[corner[2]]};
     rest.triangle_level[t] = ball_hull_distance(centroid, centres, radii).value;
   }
-  rest.field.assign(n, 0.0f);
   rest.gap.assign(n, 0.0f);
   rest.positions.assign(positions, positions + n);
   rest.skeletal.assign(skeletal, skeletal + n);
@@ -1052,7 +1050,6 @@ FairingRest make_fairing_rest(const FairingTopology& topology, const glm::vec3* 
     if (topology.fixed[v]) continue;
     const FieldValue field = field_at(grid, positions[v], skeletal, radius, ws);
     if (field.minimiser == std::numeric_limits<uint32_t>::max()) continue;
-    rest.field[v] = field.f;
     if (field.minimiser != v) {
       const glm::vec3 d = positions[v] - skeletal[v];
       rest.gap[v] = std::fabs(field.f - (glm::dot(d, d) - radius[v] * radius[v]));

@@ -161,14 +161,12 @@ struct FairingWorkspace {
 struct FairingRest {
   explicit FairingRest(const AllocatorRef& a)
       : umbrella(CallbackAllocator<glm::vec3>(a)), bi_umbrella(CallbackAllocator<glm::vec3>(a)),
-        triangle_level(CallbackAllocator<float>(a)), field(CallbackAllocator<float>(a)),
-        gap(CallbackAllocator<float>(a)), edge_2d(CallbackAllocator<glm::vec2>(a)),
-        mean_edge(CallbackAllocator<float>(a)), positions(CallbackAllocator<glm::vec3>(a)),
-        skeletal(CallbackAllocator<glm::vec3>(a)) {}
+        triangle_level(CallbackAllocator<float>(a)), gap(CallbackAllocator<float>(a)),
+        edge_2d(CallbackAllocator<glm::vec2>(a)), mean_edge(CallbackAllocator<float>(a)),
+        positions(CallbackAllocator<glm::vec3>(a)), skeletal(CallbackAllocator<glm::vec3>(a)) {}
   Array<glm::vec3> umbrella;     // U(M_rest) per vertex, in its rest local frame (fairing_frames)
   Array<glm::vec3> bi_umbrella;  // U²(M_rest) per vertex, in its rest local frame
   Array<float> triangle_level;   // E_T(C) of every triangle at rest
-  Array<float> field;            // f(M_rest) per vertex (flow (5))
   Array<float> gap;              // |f − g|(M_rest) per vertex (flow (5)'s W numerator)
   Array<glm::vec2> edge_2d;      // per one-ring entry (topology.neighbours): the rest edge in its
                                  // vertex's rest frame (tangent, bitangent components)
