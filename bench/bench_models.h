@@ -25,8 +25,9 @@ std::filesystem::path cache_dir();
 // WEIGHTS_0; materials and images dropped). NORMAL is area-weighted over the welded mesh, the
 // smooth normals an exporter writes: game assets ship authored normals, and the runtime carries
 // authored normals (skelform through the DSS frame, LBS/DQS through the blended transform)
-// where it would otherwise recompute them from the deformed faces. Nodes, skins, inverse bind matrices and animations are kept,
-// so the source's animation poses the new mesh. Written atomically.
+// where it would otherwise recompute them from the deformed faces. Nodes, skins, inverse bind
+// matrices and animations are kept, so the source's animation poses the new mesh. Written
+// atomically.
 void write_skinned_glb(const std::string& source_gltf, const skelform::bake::InputMesh& mesh,
                        const std::string& output_path);
 

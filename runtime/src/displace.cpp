@@ -93,10 +93,10 @@ void gather(const Deformable& d, const glm::vec3* refined, const glm::vec3* refi
 }
 
 // dss::surface_frame's main branch and dss::displaced_point, lane by lane, in the same
-// operation order (normalisation by a reciprocal aside), from the gathered q, m and e. `fast` is 0 where one of
-// surface_frame's guards fails: interpolated normal of length ≤ 1e-30 or not finite, p1 - p0
-// of length ≤ 1e-30, or its part in the tangent plane ≤ 1e-4 of its length. Those lanes may
-// hold inf/NaN; the caller recomputes them.
+// operation order (normalisation by a reciprocal aside), from the gathered q, m and e. `fast`
+// is 0 where one of surface_frame's guards fails: interpolated normal of length ≤ 1e-30 or not
+// finite, p1 - p0 of length ≤ 1e-30, or its part in the tangent plane ≤ 1e-4 of its length.
+// Those lanes may hold inf/NaN; the caller recomputes them.
 template <bool kNormals, bool kTangents>
 void evaluate(uint32_t count, Block& b) {
   for (uint32_t i = 0; i < count; ++i) {

@@ -453,10 +453,10 @@ void intersection_step(const FairingTopology& topo, const Grid& grid, const glm:
       //     bent joint, an arm against the torso), both skins stop a margin short of the plane
       //     between them. Without the margin both settled onto the same plane and touched or
       //     crossed between their vertices. Measured, intersecting pairs with the rest depth
-      //     alone (before) / margins of 0.35 / 0.5 / 0.75 edges: CesiumMan's animation 2,915 / 1,301 / 1,239
-      //     / 1,182 (LBS 3,769), its frames above LBS 3 / 0 / 0 / 0; the bent capsule from
-      //     rest 137 / 119 / 113 / 109; the sample animations' frames above LBS in all 16 / 16
-      //     / 16 / 15. Fig. 11 stays at 0. The price is volume: the capsule's change goes from
+      //     alone (before) / margins of 0.35 / 0.5 / 0.75 edges: CesiumMan's animation 2,915 /
+      //     1,301 / 1,239 / 1,182 (LBS 3,769), its frames above LBS 3 / 0 / 0 / 0; the bent
+      //     capsule from rest 137 / 119 / 113 / 109; the sample animations' frames above LBS in
+      //     all 16 / 16 / 16 / 15. Fig. 11 stays at 0. The price is volume: the capsule's change goes from
       //     −1.7 % to −2.6 %, Fox Survey's mean from 1.12 % to 1.18 % (LBS 1.27 %). Capping
       //     the margin at 0.75 d_v (measured after V's weighting in fold_step) took
       //     RiggedFigure's frames above LBS from 3 to 0, the samples' from 5 to 2 (caps at

@@ -155,9 +155,9 @@ struct FairingWorkspace {
 // (V weighted down where the medial radius is below 3 mean edge lengths: fair.cpp fold_step),
 // E_T minus the centroid's rest E_T, the power difference to the nearest other ball never
 // below its rest value for that ball, nor below a margin of 0.75 rest edge lengths (or medial
-// radii, if smaller) where it was farther at rest (flow (5) then pushes towards the own side of the radical plane: fair.cpp),
-// |f − g| less its rest value. At rest every force is zero; away from rest the flows act as the paper's on what
-// the pose changed. Built once per asset by make_fairing_rest().
+// radii, if smaller) where it was farther at rest (flow (5) then pushes towards the own side of
+// the radical plane: fair.cpp), |f − g| less its rest value. At rest every force is zero; away
+// from rest the flows act as the paper's on what the pose changed. Built once per asset by make_fairing_rest().
 struct FairingRest {
   explicit FairingRest(const AllocatorRef& a)
       : umbrella(CallbackAllocator<glm::vec3>(a)), bi_umbrella(CallbackAllocator<glm::vec3>(a)),

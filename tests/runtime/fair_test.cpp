@@ -350,7 +350,7 @@ Measured measure(const BentCapsule& scene, const std::vector<glm::vec3>& positio
 
 // The target for skelform on this scene: 0 intersecting pairs and |volume change| < 3 %,
 // where LBS shows intersections and volume loss. NOT reached yet (see the messages): the
-// volume is (about −2.6 %), the pairs are not (109; LBS 131, the unfaired reconstruction 141).
+// volume part is (about −2.6 %), the pairs part is not (109; LBS 131, the unfaired reconstruction 141).
 // The tubes of the two bones overlap on the inner side of the bend up to ~0.35 from the joint;
 // flow (5)'s margin keeps the two skins apart outside the blend zone, but inside it (|z| ≤ 0.1,
 // where the skeletal vertices of both bones gather at the joint) the skins still cross.
