@@ -4,7 +4,7 @@
 #include "skelform/bake/bake.h"
 #include "skelform/bake/densify.h"
 #include "skelform/bake/gltf_writer.h"
-#include "skelform/bake/topology.h"
+#include "skelform/bake/procedural_rig.h"
 #include "skelform/bake/weld.h"
 
 #include <tiny_gltf.h>  // the TinyGLTF::TinyGLTF shared library: no TINYGLTF_IMPLEMENTATION here
@@ -113,13 +113,10 @@ void write_skinned_glb(const std::string& source_gltf, const skelform::bake::Inp
   // Smooth normals as an exporter writes them: area-weighted over the welded mesh, so the
   // copies of a vertex split at a UV seam share one normal.
   const skelform::bake::WeldedMesh welded = skelform::bake::weld(mesh);
-  const std::vector<skelform::bake::Vec3> welded_normals = skelform::bake::area_weighted_normals(welded.mesh);
+  const std::vector<skelform::bake::Vec3> welded_normals = skelform::bake::vertex_normals(welded.mesh);
   std::vector<float> normals(3 * n);
-  for (size_t v = 0; v < n; ++v) {
-    const skelform::bake::Vec3& normal = welded_normals[welded.welded_of_original[v]];
-    const bool defined = normal[0] != 0.0 || normal[1] != 0.0 || normal[2] != 0.0;
-    for (int c = 0; c < 3; ++c) normals[3 * v + c] = defined ? static_cast<float>(normal[c]) : (c == 1 ? 1.0f : 0.0f);
-  }
+  for (size_t v = 0; v < n; ++v)
+    for (int c = 0; c < 3; ++c) normals[3 * v + c] = static_cast<float>(welded_normals[welded.welded_of_original[v]][c]);
   std::vector<uint32_t> indices;
   indices.reserve(3 * mesh.triangles.size());
   for (const auto& t : mesh.triangles) indices.insert(indices.end(), t.begin(), t.end());
