@@ -3,6 +3,7 @@
 // example's test input (samples/c_engine_capsule.cpp), so both run on the same model.
 #pragma once
 
+#include "skelform/bake/glb_builder.h"
 #include "skelform/bake/procedural.h"
 
 #include <glm/geometric.hpp>
@@ -19,43 +20,20 @@
 
 namespace skelform::test {
 
-namespace detail {
-
-// Appends `data` to `bin` (4-byte aligned) and returns the new bufferView's accessor JSON.
-template <class T>
-nlohmann::json add_accessor(nlohmann::json& document, std::string& bin, const std::vector<T>& data, int component,
-                            const char* type, size_t count) {
-  while (bin.size() % 4) bin.push_back('\0');
-  const size_t offset = bin.size();
-  bin.append(reinterpret_cast<const char*>(data.data()), data.size() * sizeof(T));
-  document["bufferViews"].push_back({{"buffer", 0}, {"byteOffset", offset}, {"byteLength", data.size() * sizeof(T)}});
-  return {{"bufferView", document["bufferViews"].size() - 1}, {"componentType", component}, {"count", count},
-          {"type", type}};
-}
-
-inline int push_accessor(nlohmann::json& document, nlohmann::json accessor) {
-  document["accessors"].push_back(std::move(accessor));
-  return int(document["accessors"].size() - 1);
-}
-
-}  // namespace detail
-
 // A GLB of a capsule along z (radius 0.25, z in [-0.75, 0.75]) with authored normals and
 // tangents, skinned to a root joint at z = -0.5 and a child joint at z = 0 (weights blend
 // over z in [-0.2, 0.2]), plus a primitive without normals or tangents: a sphere at z = 1.1
 // on the child joint. Two joints, two primitives, one skin: the smallest case with a bend.
 inline std::string capsule_glb() {
-  using detail::add_accessor;
-  using detail::push_accessor;
   using nlohmann::json;
-  json document = json::parse(R"({
+  bake::GlbBuilder glb;
+  glb.document = json::parse(R"({
     "asset": {"version": "2.0", "generator": "skelform tests"},
     "scene": 0, "scenes": [{"nodes": [0, 1]}],
     "nodes": [{"name": "capsule", "mesh": 0, "skin": 0},
               {"name": "root", "translation": [0, 0, -0.5], "children": [2]},
               {"name": "tip", "translation": [0, 0, 0.5]}],
     "bufferViews": [], "accessors": []})");
-  std::string bin;
   json primitives = json::array();
   const bake::TriangleMesh capsule = bake::make_capsule(0.25, 1.0, 24, 8, 6);
   bake::TriangleMesh sphere = bake::make_icosphere(0.15, 2);
@@ -72,11 +50,8 @@ inline std::string capsule_glb() {
       const glm::dvec3 face = glm::cross(mesh.positions[t[1]] - mesh.positions[t[0]], mesh.positions[t[2]] - mesh.positions[t[0]]);
       for (uint32_t v : t) normal_sum[v] += face;
     }
-    glm::vec3 lo(1e30f), hi(-1e30f);
     for (size_t i = 0; i < n; ++i) {
       const glm::vec3 p(mesh.positions[i]);
-      lo = glm::min(lo, p);
-      hi = glm::max(hi, p);
       positions.insert(positions.end(), {p.x, p.y, p.z});
       const glm::vec3 normal(glm::normalize(normal_sum[i]));
       normals.insert(normals.end(), {normal.x, normal.y, normal.z});
@@ -89,43 +64,32 @@ inline std::string capsule_glb() {
       joints.insert(joints.end(), {0, 1, 0, 0});
       weights.insert(weights.end(), {1.0f - child, child, 0.0f, 0.0f});
     }
+    // (bufferView targets are optional in glTF; this model has none.)
     json attributes;
-    json position_accessor = add_accessor(document, bin, positions, 5126, "VEC3", n);
-    position_accessor["min"] = {lo.x, lo.y, lo.z};
-    position_accessor["max"] = {hi.x, hi.y, hi.z};
-    attributes["POSITION"] = push_accessor(document, position_accessor);
+    attributes["POSITION"] = glb.add_floats(positions, "VEC3", 3, 0, true);
     if (part == 0) {
-      attributes["NORMAL"] = push_accessor(document, add_accessor(document, bin, normals, 5126, "VEC3", n));
-      attributes["TANGENT"] = push_accessor(document, add_accessor(document, bin, tangents, 5126, "VEC4", n));
+      attributes["NORMAL"] = glb.add_floats(normals, "VEC3", 3, 0, false);
+      attributes["TANGENT"] = glb.add_floats(tangents, "VEC4", 4, 0, false);
     }
-    attributes["JOINTS_0"] = push_accessor(document, add_accessor(document, bin, joints, 5123, "VEC4", n));
-    attributes["WEIGHTS_0"] = push_accessor(document, add_accessor(document, bin, weights, 5126, "VEC4", n));
-    const int index_accessor = push_accessor(document, add_accessor(document, bin, indices, 5125, "SCALAR", indices.size()));
+    attributes["JOINTS_0"] = glb.add_accessor({{"bufferView", glb.add_view(joints.data(), joints.size() * 2, 0)},
+                                               {"componentType", bake::GlbBuilder::kUnsignedShort},
+                                               {"count", n},
+                                               {"type", "VEC4"}});
+    attributes["WEIGHTS_0"] = glb.add_floats(weights, "VEC4", 4, 0, false);
+    const int index_accessor = glb.add_accessor({{"bufferView", glb.add_view(indices.data(), indices.size() * 4, 0)},
+                                                 {"componentType", bake::GlbBuilder::kUnsignedInt},
+                                                 {"count", indices.size()},
+                                                 {"type", "SCALAR"}});
     primitives.push_back({{"attributes", attributes}, {"indices", index_accessor}});
   }
-  document["meshes"] = json::array({{{"name", "capsule"}, {"primitives", primitives}}});
+  glb.document["meshes"] = json::array({{{"name", "capsule"}, {"primitives", primitives}}});
   // Inverse bind matrices: the inverses of the joints' world transforms at bind.
   std::vector<float> inverse_bind;
   for (const glm::mat4& m : {glm::translate(glm::mat4(1.0f), glm::vec3(0, 0, 0.5f)), glm::mat4(1.0f)})
     inverse_bind.insert(inverse_bind.end(), glm::value_ptr(m), glm::value_ptr(m) + 16);
-  const int ibm = push_accessor(document, add_accessor(document, bin, inverse_bind, 5126, "MAT4", 2));
-  document["skins"] = json::array({{{"joints", {1, 2}}, {"inverseBindMatrices", ibm}, {"skeleton", 1}}});
-  while (bin.size() % 4) bin.push_back('\0');
-  document["buffers"] = json::array({{{"byteLength", bin.size()}}});
-
-  std::string text = document.dump();
-  while (text.size() % 4) text.push_back(' ');
-  auto u32 = [](std::string& out, uint32_t v) { out.append(reinterpret_cast<const char*>(&v), 4); };
-  std::string glb = "glTF";
-  u32(glb, 2);
-  u32(glb, uint32_t(12 + 8 + text.size() + 8 + bin.size()));
-  u32(glb, uint32_t(text.size()));
-  u32(glb, 0x4E4F534Au);
-  glb += text;
-  u32(glb, uint32_t(bin.size()));
-  u32(glb, 0x004E4942u);
-  glb += bin;
-  return glb;
+  const int ibm = glb.add_floats(inverse_bind, "MAT4", 16, 0, false);
+  glb.document["skins"] = json::array({{{"joints", {1, 2}}, {"inverseBindMatrices", ibm}, {"skeleton", 1}}});
+  return glb.finish();
 }
 
 }  // namespace skelform::test

@@ -6,6 +6,8 @@
 // runtime's extension_layout.h, the format's single definition.
 #include "skelform/bake/gltf_writer.h"
 
+#include "skelform/bake/glb.h"
+
 #include "extension_layout.h"
 #include "skelform/bake/mesh.h"
 #include "skelform/bake/output.h"
@@ -555,26 +557,11 @@ void add_extension(Json& document, std::string& buffer0, const std::vector<Baked
 // Output containers
 
 std::string glb_bytes(const Json& document, const std::string& bin) {
-  std::string json = document.dump();
-  pad_to_4(json, ' ');
-  std::string chunk = bin;
-  pad_to_4(chunk, '\0');
-  std::string out;
-  const uint64_t total = kGlbHeaderSize + kChunkHeaderSize + json.size() + (bin.empty() ? 0 : kChunkHeaderSize + chunk.size());
-  if (total > UINT32_MAX) throw Error(ErrorKind::unsupported, "the baked GLB would exceed 4 GiB");
-  out.reserve(size_t(total));
-  append_u32(out, kGlbMagic);
-  append_u32(out, 2);
-  append_u32(out, uint32_t(total));
-  append_u32(out, uint32_t(json.size()));
-  append_u32(out, kChunkJson);
-  out += json;
-  if (!bin.empty()) {
-    append_u32(out, uint32_t(chunk.size()));
-    append_u32(out, kChunkBin);
-    out += chunk;
+  try {
+    return glb_container(document.dump(), bin);
+  } catch (const std::length_error&) {
+    throw Error(ErrorKind::unsupported, "the baked GLB would exceed 4 GiB");
   }
-  return out;
 }
 
 struct Baked {

@@ -10,6 +10,7 @@
 // (the other thigh seen from an inner thigh, the torso seen from the inside of an arm) is
 // excluded by the angle between the vertex normal and the direction from the bone.
 #include "skelform/bake/procedural_rig.h"
+#include "skelform/bake/glb_builder.h"
 #include "skelform/bake/topology.h"
 
 #include <glm/geometric.hpp>
@@ -19,8 +20,6 @@
 
 #include <algorithm>
 #include <cmath>
-#include <cstring>
-#include <limits>
 #include <numeric>
 
 namespace skelform::bake {
@@ -140,66 +139,6 @@ RigPose bend_pose(const std::vector<CharacterJoint>& joints, const RigJoints& ri
 }
 
 Vec3 joint_position(const std::vector<glm::dmat4>& world, int joint) { return Vec3(world[size_t(joint)][3]); }
-
-// --- GLB container -------------------------------------------------------------------------
-
-class GlbBuilder {
- public:
-  nlohmann::json document;
-
-  // Appends bytes as a new bufferView (4-byte aligned); target 0 = none.
-  int add_view(const void* data, size_t size, int target) {
-    while (bin_.size() % 4) bin_.push_back('\0');
-    nlohmann::json view = {{"buffer", 0}, {"byteOffset", bin_.size()}, {"byteLength", size}};
-    if (target) view["target"] = target;
-    bin_.append(static_cast<const char*>(data), size);
-    document["bufferViews"].push_back(view);
-    return int(document["bufferViews"].size() - 1);
-  }
-  int add_accessor(nlohmann::json accessor) {
-    document["accessors"].push_back(std::move(accessor));
-    return int(document["accessors"].size() - 1);
-  }
-  int add_floats(const std::vector<float>& values, const char* type, int components, int target, bool bounds) {
-    const size_t count = values.size() / size_t(components);
-    nlohmann::json accessor = {{"bufferView", add_view(values.data(), values.size() * sizeof(float), target)},
-                               {"componentType", 5126}, {"count", count}, {"type", type}};
-    if (bounds) {
-      std::vector<float> lo(size_t(components), std::numeric_limits<float>::max());
-      std::vector<float> hi(size_t(components), -std::numeric_limits<float>::max());
-      for (size_t i = 0; i < values.size(); ++i) {
-        lo[i % size_t(components)] = std::min(lo[i % size_t(components)], values[i]);
-        hi[i % size_t(components)] = std::max(hi[i % size_t(components)], values[i]);
-      }
-      accessor["min"] = lo;
-      accessor["max"] = hi;
-    }
-    return add_accessor(std::move(accessor));
-  }
-
-  std::string finish() {
-    while (bin_.size() % 4) bin_.push_back('\0');
-    document["buffers"] = nlohmann::json::array({{{"byteLength", bin_.size()}}});
-    std::string json_chunk = document.dump();
-    while (json_chunk.size() % 4) json_chunk.push_back(' ');
-    std::string out = "glTF";
-    put_u32(out, 2);
-    put_u32(out, uint32_t(12 + 8 + json_chunk.size() + 8 + bin_.size()));
-    put_u32(out, uint32_t(json_chunk.size()));
-    put_u32(out, 0x4E4F534Au);  // "JSON"
-    out += json_chunk;
-    put_u32(out, uint32_t(bin_.size()));
-    put_u32(out, 0x004E4942u);  // "BIN\0"
-    out += bin_;
-    return out;
-  }
-
- private:
-  static void put_u32(std::string& out, uint32_t v) {
-    for (int i = 0; i < 4; ++i) out.push_back(char((v >> (8 * i)) & 0xffu));
-  }
-  std::string bin_;
-};
 
 }  // namespace
 

@@ -1,10 +1,10 @@
 // Writer of skelform-animate's file (animation_glb.h).
 #include "animation_glb.h"
 
+#include "skelform/bake/glb_builder.h"
+
 #include <nlohmann/json.hpp>
 
-#include <algorithm>
-#include <limits>
 #include <stdexcept>
 
 namespace skelform::samples {
@@ -12,70 +12,8 @@ namespace {
 
 using nlohmann::json;
 
-constexpr int kFloat = 5126, kUnsignedInt = 5125;
-constexpr int kArrayBuffer = 34962, kElementArrayBuffer = 34963;
-
-class GlbBuilder {
- public:
-  json document = {{"bufferViews", json::array()}, {"accessors", json::array()}};
-
-  int add_view(const void* data, size_t size, int target) {
-    while (bin_.size() % 4) bin_.push_back('\0');
-    json view = {{"buffer", 0}, {"byteOffset", bin_.size()}, {"byteLength", size}};
-    if (target) view["target"] = target;
-    bin_.append(static_cast<const char*>(data), size);
-    document["bufferViews"].push_back(std::move(view));
-    return int(document["bufferViews"].size() - 1);
-  }
-  int add_accessor(json accessor) {
-    document["accessors"].push_back(std::move(accessor));
-    return int(document["accessors"].size() - 1);
-  }
-  // Float accessor of `components` per element; min/max when `bounds` (POSITION, animation
-  // input: the specification requires them there).
-  int add_floats(const std::vector<float>& values, const char* type, size_t components, int target, bool bounds) {
-    json accessor = {{"bufferView", add_view(values.data(), values.size() * sizeof(float), target)},
-                     {"componentType", kFloat}, {"count", values.size() / components}, {"type", type}};
-    if (bounds) {
-      std::vector<float> lo(components, std::numeric_limits<float>::max());
-      std::vector<float> hi(components, -std::numeric_limits<float>::max());
-      for (size_t i = 0; i < values.size(); ++i) {
-        lo[i % components] = std::min(lo[i % components], values[i]);
-        hi[i % components] = std::max(hi[i % components], values[i]);
-      }
-      accessor["min"] = lo;
-      accessor["max"] = hi;
-    }
-    return add_accessor(std::move(accessor));
-  }
-  int add_indices(const std::vector<uint32_t>& indices) {
-    return add_accessor({{"bufferView", add_view(indices.data(), indices.size() * 4, kElementArrayBuffer)},
-                         {"componentType", kUnsignedInt}, {"count", indices.size()}, {"type", "SCALAR"}});
-  }
-
-  std::string finish() {
-    while (bin_.size() % 4) bin_.push_back('\0');
-    document["buffers"] = json::array({{{"byteLength", bin_.size()}}});
-    std::string json_chunk = document.dump();
-    while (json_chunk.size() % 4) json_chunk.push_back(' ');
-    std::string out = "glTF";
-    put_u32(out, 2);
-    put_u32(out, uint32_t(12 + 8 + json_chunk.size() + 8 + bin_.size()));
-    put_u32(out, uint32_t(json_chunk.size()));
-    put_u32(out, 0x4E4F534Au);  // "JSON"
-    out += json_chunk;
-    put_u32(out, uint32_t(bin_.size()));
-    put_u32(out, 0x004E4942u);  // "BIN\0"
-    out += bin_;
-    return out;
-  }
-
- private:
-  static void put_u32(std::string& out, uint32_t v) {
-    for (int i = 0; i < 4; ++i) out.push_back(char((v >> (8 * i)) & 0xffu));
-  }
-  std::string bin_;
-};
+using skelform::bake::GlbBuilder;
+constexpr int kArrayBuffer = GlbBuilder::kArrayBuffer;
 
 std::vector<float> difference(const std::vector<float>& frame, const std::vector<float>& base) {
   if (frame.size() != base.size()) throw std::invalid_argument("animation_glb: a frame's vertex count differs from its base");

@@ -13,6 +13,7 @@
 #include "atomic_file.h"
 #include "cli.h"
 #include "gltf_animation.h"
+#include "skelform/bake/glb_builder.h"
 #include "skelform/skelform.h"
 
 #include <nlohmann/json.hpp>
@@ -255,56 +256,18 @@ std::string obj_text(const PosedMesh& mesh, const std::string& comment) {
 
 // A minimal standard GLB: one node, one mesh, one primitive (POSITION, NORMAL, uint32 indices).
 std::string glb_bytes(const PosedMesh& mesh, const std::string& generator) {
-  const size_t vertex_count = mesh.positions.size() / 3;
-  std::string bin;
-  auto append = [&bin](const void* data, size_t size) {
-    bin.append(static_cast<const char*>(data), size);
-    while (bin.size() % 4) bin.push_back('\0');
-  };
-  append(mesh.positions.data(), mesh.positions.size() * sizeof(float));
-  const size_t normals_offset = bin.size();
-  append(mesh.normals.data(), mesh.normals.size() * sizeof(float));
-  const size_t indices_offset = bin.size();
-  append(mesh.triangles.data(), mesh.triangles.size() * sizeof(uint32_t));
-
-  std::vector<float> lo(3, std::numeric_limits<float>::max()), hi(3, -std::numeric_limits<float>::max());
-  for (size_t i = 0; i < vertex_count; ++i)
-    for (size_t c = 0; c < 3; ++c) {
-      lo[c] = std::min(lo[c], mesh.positions[3 * i + c]);
-      hi[c] = std::max(hi[c], mesh.positions[3 * i + c]);
-    }
-  using nlohmann::json;
-  json doc = {
-      {"asset", {{"version", "2.0"}, {"generator", generator}}},
-      {"scene", 0},
-      {"scenes", {{{"nodes", {0}}}}},
-      {"nodes", {{{"mesh", 0}}}},
-      {"meshes", {{{"primitives", {{{"attributes", {{"POSITION", 0}, {"NORMAL", 1}}}, {"indices", 2}, {"mode", 4}}}}}}},
-      {"buffers", {{{"byteLength", bin.size()}}}},
-      {"bufferViews",
-       {{{"buffer", 0}, {"byteOffset", 0}, {"byteLength", mesh.positions.size() * 4}, {"target", 34962}},
-        {{"buffer", 0}, {"byteOffset", normals_offset}, {"byteLength", mesh.normals.size() * 4}, {"target", 34962}},
-        {{"buffer", 0}, {"byteOffset", indices_offset}, {"byteLength", mesh.triangles.size() * 4}, {"target", 34963}}}},
-      {"accessors",
-       {{{"bufferView", 0}, {"componentType", 5126}, {"count", vertex_count}, {"type", "VEC3"}, {"min", lo}, {"max", hi}},
-        {{"bufferView", 1}, {"componentType", 5126}, {"count", vertex_count}, {"type", "VEC3"}},
-        {{"bufferView", 2}, {"componentType", 5125}, {"count", mesh.triangles.size()}, {"type", "SCALAR"}}}},
-  };
-  std::string json_chunk = doc.dump();
-  while (json_chunk.size() % 4) json_chunk.push_back(' ');
-  auto u32 = [](std::string& out, uint32_t v) {
-    for (int i = 0; i < 4; ++i) out.push_back(static_cast<char>((v >> (8 * i)) & 0xff));
-  };
-  std::string out = "glTF";
-  u32(out, 2);
-  u32(out, static_cast<uint32_t>(12 + 8 + json_chunk.size() + 8 + bin.size()));
-  u32(out, static_cast<uint32_t>(json_chunk.size()));
-  u32(out, 0x4E4F534Au);  // "JSON"
-  out += json_chunk;
-  u32(out, static_cast<uint32_t>(bin.size()));
-  u32(out, 0x004E4942u);  // "BIN\0"
-  out += bin;
-  return out;
+  using skelform::bake::GlbBuilder;
+  GlbBuilder glb;
+  const int position = glb.add_floats(mesh.positions, "VEC3", 3, GlbBuilder::kArrayBuffer, true);
+  const int normal = glb.add_floats(mesh.normals, "VEC3", 3, GlbBuilder::kArrayBuffer, false);
+  const int indices = glb.add_indices(mesh.triangles);
+  glb.document["asset"] = {{"version", "2.0"}, {"generator", generator}};
+  glb.document["scene"] = 0;
+  glb.document["scenes"] = {{{"nodes", {0}}}};
+  glb.document["nodes"] = {{{"mesh", 0}}};
+  glb.document["meshes"] = {
+      {{"primitives", {{{"attributes", {{"POSITION", position}, {"NORMAL", normal}}}, {"indices", indices}, {"mode", 4}}}}}};
+  return glb.finish();
 }
 
 int run(const Arguments& args) {

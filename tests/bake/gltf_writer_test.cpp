@@ -5,6 +5,7 @@
 #include "skelform/bake/gltf_writer.h"
 
 #include "extension_layout.h"
+#include "skelform/bake/glb.h"
 #include "skelform/bake/mesh.h"
 #include "test_support.h"
 
@@ -49,26 +50,8 @@ uint32_t u32_at(const std::string& bytes, size_t at) {
   return v;  // little-endian host (x86-64, aarch64)
 }
 
-void append_u32(std::string& out, uint32_t v) { out.append(reinterpret_cast<const char*>(&v), 4); }
-
 std::string make_glb(const std::string& json_text, const std::string& bin) {
-  std::string json = json_text;
-  while (json.size() % 4) json.push_back(' ');
-  std::string chunk = bin;
-  while (chunk.size() % 4) chunk.push_back('\0');
-  std::string out;
-  append_u32(out, 0x46546C67);
-  append_u32(out, 2);
-  append_u32(out, uint32_t(12 + 8 + json.size() + (bin.empty() ? 0 : 8 + chunk.size())));
-  append_u32(out, uint32_t(json.size()));
-  append_u32(out, 0x4E4F534A);
-  out += json;
-  if (!bin.empty()) {
-    append_u32(out, uint32_t(chunk.size()));
-    append_u32(out, 0x004E4942);
-    out += chunk;
-  }
-  return out;
+  return skelform::bake::glb_container(json_text, bin);
 }
 
 std::string base64_decode(const std::string& text) {

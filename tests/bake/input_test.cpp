@@ -1,5 +1,6 @@
 // Mesh input: the real models load with their documented counts, and every kind of bad
 // input ends in skelform::bake::Error with a message naming the problem, never a crash.
+#include "skelform/bake/glb.h"
 #include "skelform/bake/gltf_access.h"
 #include "skelform/bake/input.h"
 #include "skelform/bake/weld.h"
@@ -320,24 +321,8 @@ struct GltfParts {
   }
 
   std::vector<unsigned char> glb() const {
-    std::string json_chunk = json("");
-    while (json_chunk.size() % 4) json_chunk += ' ';
-    std::vector<unsigned char> bin = buffer();
-    while (bin.size() % 4) bin.push_back(0);
-    std::vector<unsigned char> out;
-    auto u32 = [&out](uint32_t v) {
-      for (int i = 0; i < 4; ++i) out.push_back(static_cast<unsigned char>(v >> (8 * i)));
-    };
-    out.insert(out.end(), {'g', 'l', 'T', 'F'});
-    u32(2);
-    u32(static_cast<uint32_t>(12 + 8 + json_chunk.size() + 8 + bin.size()));
-    u32(static_cast<uint32_t>(json_chunk.size()));
-    u32(0x4E4F534A);
-    out.insert(out.end(), json_chunk.begin(), json_chunk.end());
-    u32(static_cast<uint32_t>(bin.size()));
-    u32(0x004E4942);
-    out.insert(out.end(), bin.begin(), bin.end());
-    return out;
+    const std::vector<unsigned char> bin = buffer();
+    return bytes_of(skelform::bake::glb_container(json(""), std::string(bin.begin(), bin.end())));
   }
 };
 

@@ -8,6 +8,7 @@
 #include "refine.h"
 #include "skelform/bake/bake.h"
 #include "skelform/bake/gltf_writer.h"
+#include "skelform/bake/glb.h"
 #include "skelform/bake/input.h"
 #include "skelform/skelform.h"
 #include "test_support.h"
@@ -101,23 +102,7 @@ struct Glb {
     if (bin_header + 8 <= glb.size()) bin = glb.substr(bin_header + 8, u32_at(glb, bin_header));
   }
 
-  std::string bytes() const {
-    std::string text = json.dump();
-    while (text.size() % 4) text += ' ';
-    std::string out = "glTF";
-    const auto put = [&out](uint32_t v) { out.append(reinterpret_cast<const char*>(&v), 4); };
-    put(2);
-    put(static_cast<uint32_t>(12 + 8 + text.size() + (bin.empty() ? 0 : 8 + bin.size())));
-    put(static_cast<uint32_t>(text.size()));
-    put(0x4E4F534Au);
-    out += text;
-    if (!bin.empty()) {
-      put(static_cast<uint32_t>(bin.size()));
-      put(0x004E4942u);
-      out += bin;
-    }
-    return out;
-  }
+  std::string bytes() const { return skelform::bake::glb_container(json.dump(), bin); }
 
   Json& extension() { return json["extensions"]["SKELFORM_skeletal_deformation"]; }
   Json& deformable() { return extension()["deformables"][0]; }
