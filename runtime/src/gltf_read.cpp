@@ -455,6 +455,14 @@ std::vector<uint32_t> read_indices(const tinygltf::Model& model, int accessor, s
   return out;
 }
 
+std::vector<double> read_values(const tinygltf::Model& model, int accessor, int type,
+                                const std::vector<int>& component_types, const std::string& what) {
+  const std::vector<double> values = read_components(model, accessor, {type, component_types, true, false}, what);
+  check_finite(values, static_cast<size_t>(tinygltf::GetNumComponentsInType(static_cast<uint32_t>(type))), what,
+               accessor);
+  return values;
+}
+
 std::vector<double> read_exact(const tinygltf::Model& model, int accessor, int component_type, int components,
                                const std::string& what) {
   static constexpr int kTypes[] = {TINYGLTF_TYPE_SCALAR, TINYGLTF_TYPE_VEC2, TINYGLTF_TYPE_VEC3, TINYGLTF_TYPE_VEC4};

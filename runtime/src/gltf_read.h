@@ -100,6 +100,13 @@ std::vector<glm::dvec4> read_weights(const tinygltf::Model& model, int accessor,
 std::vector<uint32_t> read_indices(const tinygltf::Model& model, int accessor, size_t vertex_count,
                                    const std::string& what);
 
+// Any other numeric data (animation sampler input and output, the samples' helper): `type`
+// (TINYGLTF_TYPE_*) with a component type among `component_types`, FLOAT or a normalized
+// integer type (mapped by the specification's formulas; integer components that are not
+// normalized are unsupported), every value finite; count × components doubles.
+std::vector<double> read_values(const tinygltf::Model& model, int accessor, int type,
+                                const std::vector<int>& component_types, const std::string& what);
+
 // An array whose layout a format fixes exactly (the SKELFORM extension's arrays):
 // `component_type` (a TINYGLTF_COMPONENT_TYPE_*), `components` per element (1-4, SCALAR to
 // VEC4), not normalized; FLOAT values finite. Any other layout is invalid data, not

@@ -3,6 +3,8 @@
 // precision, converted to float only for the returned matrices.
 #include "gltf_animation.h"
 
+#include "gltf_read.h"  // the runtime's validated accessor reader (internal, linked from skelform::runtime)
+
 #include <tiny_gltf.h>  // the TinyGLTF::TinyGLTF shared library: no TINYGLTF_IMPLEMENTATION here
 
 #include <glm/gtc/quaternion.hpp>
@@ -65,159 +67,35 @@ bool all_finite(const double* values, size_t count) {
   return true;
 }
 
-const char* type_name(int type) {
-  switch (type) {
-    case TINYGLTF_TYPE_SCALAR: return "SCALAR";
-    case TINYGLTF_TYPE_VEC2: return "VEC2";
-    case TINYGLTF_TYPE_VEC3: return "VEC3";
-    case TINYGLTF_TYPE_VEC4: return "VEC4";
-    case TINYGLTF_TYPE_MAT2: return "MAT2";
-    case TINYGLTF_TYPE_MAT3: return "MAT3";
-    case TINYGLTF_TYPE_MAT4: return "MAT4";
-    default: return "unknown type";
-  }
-}
-
-size_t component_size(int component_type) {
-  switch (component_type) {
-    case TINYGLTF_COMPONENT_TYPE_BYTE:
-    case TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE: return 1;
-    case TINYGLTF_COMPONENT_TYPE_SHORT:
-    case TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT: return 2;
-    case TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT:
-    case TINYGLTF_COMPONENT_TYPE_FLOAT: return 4;
-    default: return 0;
-  }
-}
-
-// One component at `p` as a double: floats as they are, normalized integers by the glTF
-// formulas (signed: max(c / 127, -1), ...), other integers as their value.
-double read_component(const unsigned char* p, int component_type, bool normalized) {
-  switch (component_type) {
-    case TINYGLTF_COMPONENT_TYPE_FLOAT: {
-      float v;
-      std::memcpy(&v, p, 4);
-      return v;
-    }
-    case TINYGLTF_COMPONENT_TYPE_BYTE: {
-      int8_t v;
-      std::memcpy(&v, p, 1);
-      return normalized ? std::max(v / 127.0, -1.0) : v;
-    }
-    case TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE: return normalized ? p[0] / 255.0 : p[0];
-    case TINYGLTF_COMPONENT_TYPE_SHORT: {
-      int16_t v;
-      std::memcpy(&v, p, 2);
-      return normalized ? std::max(v / 32767.0, -1.0) : v;
-    }
-    case TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT: {
-      uint16_t v;
-      std::memcpy(&v, p, 2);
-      return normalized ? v / 65535.0 : v;
-    }
-    case TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT: {
-      uint32_t v;
-      std::memcpy(&v, p, 4);
-      return v;
-    }
-    default: return 0.0;
-  }
-}
-
-// Reads and validates glTF accessors of one document.
+// Accessor data through the runtime's validated reader (runtime/src/gltf_read.h, which the
+// asset loader and the baker use too: bounds, strides, sparse data, normalized integers,
+// finiteness), its errors turned into this helper's GltfError; and the helper's own checks.
 class AccessorReader {
  public:
   AccessorReader(const tinygltf::Model& model, const std::string& name) : model_(model), name_(name) {}
 
   [[noreturn]] void fail(const std::string& message) const { throw GltfError(name_ + ": " + message); }
 
-  // All elements of accessor `index` as doubles (count × components), checking that its
-  // type is one of `types` and its component type one of `component_types`; every byte range
-  // is checked against its buffer (sparse substitution included) and values must be finite.
-  std::vector<double> read(int index, const std::string& what, std::initializer_list<int> types,
-                           std::initializer_list<int> component_types) const {
-    if (index < 0 || static_cast<size_t>(index) >= model_.accessors.size())
-      fail(what + " refers to accessor " + std::to_string(index) + ", which does not exist");
-    const tinygltf::Accessor& accessor = model_.accessors[static_cast<size_t>(index)];
-    const std::string label = what + " (accessor " + std::to_string(index) + ")";
-    if (std::find(types.begin(), types.end(), accessor.type) == types.end())
-      fail(label + " has type " + type_name(accessor.type) + ", which is not allowed here");
-    if (std::find(component_types.begin(), component_types.end(), accessor.componentType) == component_types.end())
-      fail(label + " has component type " + std::to_string(accessor.componentType) + ", which is not allowed here");
-    const size_t components = static_cast<size_t>(tinygltf::GetNumComponentsInType(static_cast<uint32_t>(accessor.type)));
-    const size_t size = component_size(accessor.componentType);
-    const size_t count = accessor.count;
-    if (count == 0) fail(label + " is empty");
-    if (count > (size_t{1} << 31)) fail(label + " has an implausible count " + std::to_string(count));
-    std::vector<double> values(count * components, 0.0);  // no bufferView: zeros (then sparse)
-    if (accessor.bufferView >= 0) {
-      const size_t element = components * size;
-      const auto [data, available, stride] = view_bytes(accessor.bufferView, accessor.byteOffset, element, label);
-      if ((count - 1) * stride + element > available) fail(label + " reads past the end of its bufferView");
-      for (size_t i = 0; i < count; ++i)
-        for (size_t c = 0; c < components; ++c)
-          values[i * components + c] = read_component(data + i * stride + c * size, accessor.componentType,
-                                                      accessor.normalized);
-    } else if (!accessor.sparse.isSparse) {
-      fail(label + " has neither a bufferView nor sparse values");
+  // All elements of accessor `index` as doubles (count × components): `type` with a
+  // component type among `component_types` (FLOAT, or normalized integers), values finite.
+  std::vector<double> read(int index, const std::string& what, int type, const std::vector<int>& component_types) const {
+    try {
+      return gltf::read_values(model_, index, type, component_types, name_ + ": " + what);
+    } catch (const gltf::GltfError& e) {
+      throw GltfError(e.what());
     }
-    if (accessor.sparse.isSparse) apply_sparse(accessor, label, components, size, values);
-    if (!all_finite(values.data(), values.size())) fail(label + " contains NaN or infinite values");
-    return values;
+  }
+
+  // Triangle indices (UNSIGNED_BYTE/SHORT/INT), each below `vertex_count`.
+  std::vector<uint32_t> indices(int index, size_t vertex_count, const std::string& what) const {
+    try {
+      return gltf::read_indices(model_, index, vertex_count, name_ + ": " + what);
+    } catch (const gltf::GltfError& e) {
+      throw GltfError(e.what());
+    }
   }
 
  private:
-  struct ViewBytes {
-    const unsigned char* data;  // first byte of the accessor's data
-    size_t available;           // bytes from `data` to the end of the bufferView
-    size_t stride;              // bytes between elements
-  };
-
-  ViewBytes view_bytes(int view_index, size_t byte_offset, size_t element, const std::string& label) const {
-    if (view_index < 0 || static_cast<size_t>(view_index) >= model_.bufferViews.size())
-      fail(label + " refers to bufferView " + std::to_string(view_index) + ", which does not exist");
-    const tinygltf::BufferView& view = model_.bufferViews[static_cast<size_t>(view_index)];
-    if (view.buffer < 0 || static_cast<size_t>(view.buffer) >= model_.buffers.size())
-      fail(label + ": bufferView " + std::to_string(view_index) + " refers to a missing buffer");
-    const std::vector<unsigned char>& buffer = model_.buffers[static_cast<size_t>(view.buffer)].data;
-    if (view.byteOffset > buffer.size() || view.byteLength > buffer.size() - view.byteOffset)
-      fail(label + ": bufferView " + std::to_string(view_index) + " lies outside its buffer");
-    if (byte_offset > view.byteLength) fail(label + " starts outside its bufferView");
-    const size_t stride = view.byteStride ? view.byteStride : element;
-    if (stride < element) fail(label + " has a byteStride smaller than its elements");
-    return {buffer.data() + view.byteOffset + byte_offset, view.byteLength - byte_offset, stride};
-  }
-
-  void apply_sparse(const tinygltf::Accessor& accessor, const std::string& label, size_t components, size_t size,
-                    std::vector<double>& values) const {
-    const int sparse_count = accessor.sparse.count;
-    if (sparse_count < 1 || static_cast<size_t>(sparse_count) > accessor.count)
-      fail(label + " has a sparse count outside [1, count]");
-    const size_t n = static_cast<size_t>(sparse_count);
-    const int index_type = accessor.sparse.indices.componentType;
-    const size_t index_size = component_size(index_type);
-    if (index_type != TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE && index_type != TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT &&
-        index_type != TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT)
-      fail(label + " has sparse indices of a non-unsigned-integer type");
-    if (accessor.sparse.indices.byteOffset < 0 || accessor.sparse.values.byteOffset < 0)
-      fail(label + " has a negative sparse byteOffset");
-    const ViewBytes indices = view_bytes(accessor.sparse.indices.bufferView,
-                                         static_cast<size_t>(accessor.sparse.indices.byteOffset), index_size, label);
-    const ViewBytes sparse_values = view_bytes(accessor.sparse.values.bufferView,
-                                               static_cast<size_t>(accessor.sparse.values.byteOffset),
-                                               components * size, label);
-    if (n * index_size > indices.available || n * components * size > sparse_values.available)
-      fail(label + "'s sparse data reads past the end of its bufferView");
-    for (size_t i = 0; i < n; ++i) {
-      const double target = read_component(indices.data + i * index_size, index_type, false);
-      if (target >= static_cast<double>(accessor.count)) fail(label + " has a sparse index out of range");
-      const size_t element = static_cast<size_t>(target);
-      for (size_t c = 0; c < components; ++c)
-        values[element * components + c] = read_component(sparse_values.data + (i * components + c) * size,
-                                                          accessor.componentType, accessor.normalized);
-    }
-  }
-
   const tinygltf::Model& model_;
   const std::string& name_;
 };
@@ -408,7 +286,7 @@ void GltfAnimation::Impl::validate_skins(const AccessorReader& reader) {
     skin.inverse_bind.assign(skin.joints.size(), Mat4(1.0));
     if (source.inverseBindMatrices >= 0) {
       const std::vector<double> matrices = reader.read(source.inverseBindMatrices, what + "'s inverseBindMatrices",
-                                                       {TINYGLTF_TYPE_MAT4}, {TINYGLTF_COMPONENT_TYPE_FLOAT});
+                                                       TINYGLTF_TYPE_MAT4, {TINYGLTF_COMPONENT_TYPE_FLOAT});
       if (matrices.size() / 16 < skin.joints.size())
         reader.fail(what + " has " + std::to_string(matrices.size() / 16) + " inverse bind matrices for " +
                     std::to_string(skin.joints.size()) + " joints");
@@ -453,7 +331,7 @@ void GltfAnimation::Impl::validate_animations(const AccessorReader& reader) {
       else if (sampler.interpolation == "STEP") decoded.interpolation = Interpolation::step;
       else if (sampler.interpolation == "CUBICSPLINE") decoded.interpolation = Interpolation::cubic_spline;
       else reader.fail(sampler_label + " has unknown interpolation '" + sampler.interpolation + "'");
-      decoded.times = reader.read(sampler.input, sampler_label + " input", {TINYGLTF_TYPE_SCALAR},
+      decoded.times = reader.read(sampler.input, sampler_label + " input", TINYGLTF_TYPE_SCALAR,
                                   {TINYGLTF_COMPONENT_TYPE_FLOAT});
       for (size_t i = 1; i < decoded.times.size(); ++i)
         if (!(decoded.times[i] > decoded.times[i - 1]))
@@ -463,7 +341,7 @@ void GltfAnimation::Impl::validate_animations(const AccessorReader& reader) {
       if (decoded.path == Path::weights) {
         // Morph weights: checked for shape, not applied (SCALAR outputs, a multiple of keys).
         const std::vector<double> weights = reader.read(
-            sampler.output, sampler_label + " output", {TINYGLTF_TYPE_SCALAR},
+            sampler.output, sampler_label + " output", TINYGLTF_TYPE_SCALAR,
             {TINYGLTF_COMPONENT_TYPE_FLOAT, TINYGLTF_COMPONENT_TYPE_BYTE, TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE,
              TINYGLTF_COMPONENT_TYPE_SHORT, TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT});
         if (weights.size() % (keyframes * per_keyframe) != 0)
@@ -472,12 +350,12 @@ void GltfAnimation::Impl::validate_animations(const AccessorReader& reader) {
       }
       decoded.components = decoded.path == Path::rotation ? 4 : 3;
       if (decoded.path == Path::rotation) {
-        decoded.values = reader.read(sampler.output, sampler_label + " output", {TINYGLTF_TYPE_VEC4},
+        decoded.values = reader.read(sampler.output, sampler_label + " output", TINYGLTF_TYPE_VEC4,
                                      {TINYGLTF_COMPONENT_TYPE_FLOAT, TINYGLTF_COMPONENT_TYPE_BYTE,
                                       TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE, TINYGLTF_COMPONENT_TYPE_SHORT,
                                       TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT});
       } else {
-        decoded.values = reader.read(sampler.output, sampler_label + " output", {TINYGLTF_TYPE_VEC3},
+        decoded.values = reader.read(sampler.output, sampler_label + " output", TINYGLTF_TYPE_VEC3,
                                      {TINYGLTF_COMPONENT_TYPE_FLOAT});
       }
       const size_t elements = decoded.values.size() / static_cast<size_t>(decoded.components);
@@ -652,7 +530,7 @@ std::vector<float> GltfAnimation::primitive_positions(size_t mesh, size_t primit
   if (position == p.attributes.end()) throw GltfError(impl_->name + ": " + what + " has no POSITION");
   const AccessorReader reader(impl_->model, impl_->name);
   const std::vector<double> values =
-      reader.read(position->second, what + " POSITION", {TINYGLTF_TYPE_VEC3}, {TINYGLTF_COMPONENT_TYPE_FLOAT});
+      reader.read(position->second, what + " POSITION", TINYGLTF_TYPE_VEC3, {TINYGLTF_COMPONENT_TYPE_FLOAT});
   return std::vector<float>(values.begin(), values.end());
 }
 
@@ -662,18 +540,7 @@ std::vector<uint32_t> GltfAnimation::primitive_triangles(size_t mesh, size_t pri
   const std::string what = "mesh " + std::to_string(mesh) + " primitive " + std::to_string(primitive);
   std::vector<uint32_t> indices;
   if (p.indices >= 0) {
-    const AccessorReader reader(impl_->model, impl_->name);
-    const std::vector<double> values =
-        reader.read(p.indices, what + " indices", {TINYGLTF_TYPE_SCALAR},
-                    {TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE, TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT,
-                     TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT});
-    indices.reserve(values.size());
-    for (double v : values) {
-      if (v >= static_cast<double>(vertex_count))
-        throw GltfError(impl_->name + ": " + what + " has index " + std::to_string(static_cast<uint64_t>(v)) +
-                        " for " + std::to_string(vertex_count) + " vertices");
-      indices.push_back(static_cast<uint32_t>(v));
-    }
+    indices = AccessorReader(impl_->model, impl_->name).indices(p.indices, vertex_count, what + " indices");
   } else {
     indices.resize(vertex_count);
     for (size_t i = 0; i < vertex_count; ++i) indices[i] = static_cast<uint32_t>(i);
