@@ -25,6 +25,10 @@
 #include <cmath>
 #include <limits>
 
+#if defined(__SSE2__)
+#include <emmintrin.h>
+#endif
+
 namespace skelform::runtime {
 namespace {
 
@@ -577,8 +581,10 @@ float toward(const glm::vec3& n, const glm::vec3& foot, float foot_radius, const
 // in fold_step evaluate this same function, so both give the same bits; in a block the
 // independent triangles overlap their divisions and square roots (measured: ~5 % of the
 // fairing; GCC 12 does not vectorise it, not even with -fno-trapping-math, which we would not
-// impose on engines that trap floating-point exceptions anyway). Inputs: P − c_0 (w0), e_1, e_2, r_0,
-// δ_1, δ_2. Returns whether the stationary point exists and lies in the triangle.
+// impose on engines that trap floating-point exceptions anyway). With SSE2 the block runs it
+// four triangles at a time (interior_lanes4 below: the same operations per lane, so the same
+// bits; measured ~3 % off a whole CesiumMan_loop2 evaluation). Inputs: P − c_0 (w0), e_1, e_2,
+// r_0, δ_1, δ_2. Returns whether the stationary point exists and lies in the triangle.
 inline bool interior_lane(float w0x, float w0y, float w0z, float e1x, float e1y, float e1z, float e2x,
                           float e2y, float e2z, float r0, float d1, float d2, float& value, float& nx,
                           float& ny, float& nz) {
@@ -612,6 +618,67 @@ inline bool interior_lane(float w0x, float w0y, float w0z, float e1x, float e1y,
   value = t - (r0 + beta1 * d1 + beta2 * d2);
   return det_ok & q_ok & (beta1 >= 0.0f) & (beta2 >= 0.0f) & (beta1 + beta2 <= 1.0f);
 }
+
+#if defined(__SSE2__)
+// interior_lane for four triangles at once, in SSE2 (x86-64's baseline: no ISA flag, no
+// dispatch): lane by lane the same IEEE operations in the same order (selects as and/andnot/or,
+// ±1 and |w| as in the scalar code), so every lane has interior_lane's bits. Reads and writes
+// elements [i, i + 4) of the block's arrays; inside[k] as interior_lane's return value.
+inline void interior_lanes4(const float* w0x, const float* w0y, const float* w0z, const float* e1x,
+                            const float* e1y, const float* e1z, const float* e2x, const float* e2y,
+                            const float* e2z, const float* r0, const float* d1, const float* d2, float* value,
+                            float* nx, float* ny, float* nz, bool* inside) {
+  const auto load = [](const float* p) { return _mm_loadu_ps(p); };
+  const auto add = [](__m128 a, __m128 b) { return _mm_add_ps(a, b); };
+  const auto sub = [](__m128 a, __m128 b) { return _mm_sub_ps(a, b); };
+  const auto mul = [](__m128 a, __m128 b) { return _mm_mul_ps(a, b); };
+  const auto select = [](__m128 mask, __m128 a, __m128 b) {
+    return _mm_or_ps(_mm_and_ps(mask, a), _mm_andnot_ps(mask, b));
+  };
+  const __m128 zero = _mm_setzero_ps(), one = _mm_set1_ps(1.0f);
+  const __m128 sign = _mm_set1_ps(-0.0f);
+  const __m128 ax = load(e1x), ay = load(e1y), az = load(e1z), bx = load(e2x), by = load(e2y), bz = load(e2z);
+  const __m128 px = load(w0x), py = load(w0y), pz = load(w0z);
+  const __m128 delta1 = load(d1), delta2 = load(d2);
+  const __m128 g11 = add(add(mul(ax, ax), mul(ay, ay)), mul(az, az));
+  const __m128 g12 = add(add(mul(ax, bx), mul(ay, by)), mul(az, bz));
+  const __m128 g22 = add(add(mul(bx, bx), mul(by, by)), mul(bz, bz));
+  const __m128 det = sub(mul(g11, g22), mul(g12, g12));
+  const __m128 det_ok =
+      _mm_and_ps(_mm_cmpgt_ps(det, mul(mul(_mm_set1_ps(1e-6f), g11), g22)), _mm_cmpgt_ps(det, zero));
+  const __m128 safe_det = select(det_ok, det, one);
+  const __m128 inverse_det = _mm_div_ps(one, safe_det);
+  const __m128 a = mul(add(mul(_mm_xor_ps(delta1, sign), g22), mul(delta2, g12)), inverse_det);
+  const __m128 b = mul(add(mul(_mm_xor_ps(delta2, sign), g11), mul(delta1, g12)), inverse_det);
+  const __m128 n0x = add(mul(a, ax), mul(b, bx)), n0y = add(mul(a, ay), mul(b, by)), n0z = add(mul(a, az), mul(b, bz));
+  const __m128 q = sub(one, add(add(mul(n0x, n0x), mul(n0y, n0y)), mul(n0z, n0z)));
+  const __m128 q_ok = _mm_cmpgt_ps(q, zero);
+  const __m128 mu = _mm_sqrt_ps(select(q_ok, q, one));
+  const __m128 inverse_area = _mm_div_ps(one, _mm_sqrt_ps(safe_det));
+  const __m128 mx = mul(sub(mul(ay, bz), mul(az, by)), inverse_area);
+  const __m128 my = mul(sub(mul(az, bx), mul(ax, bz)), inverse_area);
+  const __m128 mz = mul(sub(mul(ax, by), mul(ay, bx)), inverse_area);
+  const __m128 w = add(add(mul(px, mx), mul(py, my)), mul(pz, mz));
+  const __m128 sigma_mu = mul(mu, select(_mm_cmpge_ps(w, zero), one, _mm_set1_ps(-1.0f)));
+  const __m128 normal_x = add(n0x, mul(sigma_mu, mx)), normal_y = add(n0y, mul(sigma_mu, my));
+  const __m128 normal_z = add(n0z, mul(sigma_mu, mz));
+  const __m128 t = _mm_div_ps(_mm_andnot_ps(sign, w), mu);
+  const __m128 fx = sub(px, mul(t, normal_x)), fy = sub(py, mul(t, normal_y)), fz = sub(pz, mul(t, normal_z));
+  const __m128 f1 = add(add(mul(fx, ax), mul(fy, ay)), mul(fz, az));
+  const __m128 f2 = add(add(mul(fx, bx), mul(fy, by)), mul(fz, bz));
+  const __m128 beta1 = mul(sub(mul(f1, g22), mul(f2, g12)), inverse_det);
+  const __m128 beta2 = mul(sub(mul(f2, g11), mul(f1, g12)), inverse_det);
+  _mm_storeu_ps(value, sub(t, add(add(load(r0), mul(beta1, delta1)), mul(beta2, delta2))));
+  _mm_storeu_ps(nx, normal_x);
+  _mm_storeu_ps(ny, normal_y);
+  _mm_storeu_ps(nz, normal_z);
+  const __m128 ok = _mm_and_ps(_mm_and_ps(_mm_and_ps(det_ok, q_ok), _mm_and_ps(_mm_cmpge_ps(beta1, zero),
+                                                                            _mm_cmpge_ps(beta2, zero))),
+                               _mm_cmple_ps(add(beta1, beta2), one));
+  const int bits = _mm_movemask_ps(ok);
+  for (int k = 0; k < 4; ++k) inside[k] = (bits >> k) & 1;
+}
+#endif
 
 // The interior candidate as a HullDistance, if it is the minimum and finite.
 bool interior_result(float value, float nx, float ny, float nz, HullDistance& result) {
@@ -737,7 +804,13 @@ void triangle_forces(const FairingTopology& topo, const glm::vec3* skeletal, con
     const float rr0 = radius[corner[0]], rr1 = radius[corner[1]], rr2 = radius[corner[2]];
     r0[i] = rr0, d1[i] = rr1 - rr0, d2[i] = rr2 - rr0;
   }
-  for (uint32_t i = 0; i < count; ++i)
+  uint32_t i = 0;
+#if defined(__SSE2__)
+  for (; i + 4 <= count; i += 4)
+    interior_lanes4(w0x + i, w0y + i, w0z + i, e1x + i, e1y + i, e1z + i, e2x + i, e2y + i, e2z + i, r0 + i, d1 + i,
+                    d2 + i, value + i, nx + i, ny + i, nz + i, inside + i);
+#endif
+  for (; i < count; ++i)
     inside[i] = interior_lane(w0x[i], w0y[i], w0z[i], e1x[i], e1y[i], e1z[i], e2x[i], e2y[i], e2z[i], r0[i], d1[i],
                               d2[i], value[i], nx[i], ny[i], nz[i]);
   for (uint32_t i = 0; i < count; ++i) {
