@@ -314,6 +314,14 @@ Grid build_grid(const FairingTopology& topo, const glm::vec3* skeletal, const fl
   }
   for (size_t c = cell_count; c > 0; --c) ws.cell_offsets[c] = ws.cell_offsets[c - 1];
   ws.cell_offsets[0] = 0;
+  // The balls in cell order, structure of arrays: cell_minimum's candidates side by side.
+  for (uint32_t k = 0; k < ws.cell_offsets[cell_count]; ++k) {
+    const uint32_t s = ws.cell_vertices[k];
+    ws.cell_x[k] = skeletal[s].x;
+    ws.cell_y[k] = skeletal[s].y;
+    ws.cell_z[k] = skeletal[s].z;
+    ws.cell_rr[k] = radius[s] * radius[s];
+  }
   return grid;
 }
 
@@ -326,6 +334,29 @@ struct FieldValue {
 // `exclude`, into `best`.
 void cell_minimum(const glm::vec3& x, const glm::vec3* skeletal, const float* radius, const FairingWorkspace& ws,
                   size_t cell, uint32_t exclude, FieldValue& best) {
+#if defined(__SSE2__)
+  // Four candidates at a time from the cell-ordered copy (build_grid), g in each lane exactly
+  // as below ((dx² + dy²) + dz², minus d²); only a group with some g below the best so far is
+  // walked lane by lane, in order, with the scalar rule: the same minimum and the same ties.
+  static_cast<void>(skeletal), static_cast<void>(radius);
+  const uint32_t begin = ws.cell_offsets[cell], end = ws.cell_offsets[cell + 1];
+  const __m128 px = _mm_set1_ps(x.x), py = _mm_set1_ps(x.y), pz = _mm_set1_ps(x.z);
+  for (uint32_t k = begin; k < end; k += 4) {
+    const __m128 dx = _mm_sub_ps(px, _mm_loadu_ps(ws.cell_x.data() + k));
+    const __m128 dy = _mm_sub_ps(py, _mm_loadu_ps(ws.cell_y.data() + k));
+    const __m128 dz = _mm_sub_ps(pz, _mm_loadu_ps(ws.cell_z.data() + k));
+    const __m128 g = _mm_sub_ps(_mm_add_ps(_mm_add_ps(_mm_mul_ps(dx, dx), _mm_mul_ps(dy, dy)), _mm_mul_ps(dz, dz)),
+                                _mm_loadu_ps(ws.cell_rr.data() + k));
+    const uint32_t lanes = std::min(4u, end - k);
+    if ((_mm_movemask_ps(_mm_cmplt_ps(g, _mm_set1_ps(best.f))) & ((1 << lanes) - 1)) == 0) continue;
+    alignas(16) float values[4];
+    _mm_store_ps(values, g);
+    for (uint32_t lane = 0; lane < lanes; ++lane) {
+      const uint32_t s = ws.cell_vertices[k + lane];
+      if (s != exclude && values[lane] < best.f) best = {values[lane], s};
+    }
+  }
+#else
   for (uint32_t k = ws.cell_offsets[cell]; k < ws.cell_offsets[cell + 1]; ++k) {
     const uint32_t s = ws.cell_vertices[k];
     if (s == exclude) continue;
@@ -333,6 +364,7 @@ void cell_minimum(const glm::vec3& x, const glm::vec3* skeletal, const float* ra
     const float g = glm::dot(d, d) - radius[s] * radius[s];
     if (g < best.f) best = {g, s};
   }
+#endif
 }
 
 // f(x) of (5): h of x's own cell when negative, else the minimum of h over the neighbouring
@@ -931,6 +963,10 @@ FairingWorkspace make_fairing_workspace(const FairingTopology& topology, uint32_
   ws.cell_vertices.assign(n, 0);
   ws.cell_max_radius.assign(cells, 0.0f);
   ws.vertex_cell.assign(n, 0);
+  ws.cell_x.assign(n + 3, 0.0f);
+  ws.cell_y.assign(n + 3, 0.0f);
+  ws.cell_z.assign(n + 3, 0.0f);
+  ws.cell_rr.assign(n + 3, 0.0f);
   ws.target_umbrella.assign(n, glm::vec3(0.0f));
   ws.target_bi_umbrella.assign(n, glm::vec3(0.0f));
   ws.iteration_start.assign(n, glm::vec3(0.0f));
