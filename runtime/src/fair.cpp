@@ -811,6 +811,106 @@ HullDistance ball_hull_distance(const glm::vec3& point, const glm::vec3* centres
 
 namespace {
 
+#if defined(__SSE2__)
+constexpr bool kHintedLanes = true;
+
+// Four triangles' hinted candidates (boundary_distance's first part), structure of arrays:
+// the centroid P, the balls (a, b, c) ordered from the hint's (vertex a, or edge a → b; c the
+// remaining corner) and whether the hint is an edge.
+struct HullLanes {
+  float px[4], py[4], pz[4], ax[4], ay[4], az[4], bx[4], by[4], bz[4], cx[4], cy[4], cz[4];
+  float ra[4], rb[4], rc[4];
+  uint32_t edge[4];
+  void set(uint32_t lane, const glm::vec3& p, const glm::vec3& a, const glm::vec3& b, const glm::vec3& c, float r_a,
+           float r_b, float r_c, bool is_edge) {
+    px[lane] = p.x, py[lane] = p.y, pz[lane] = p.z;
+    ax[lane] = a.x, ay[lane] = a.y, az[lane] = a.z;
+    bx[lane] = b.x, by[lane] = b.y, bz[lane] = b.z;
+    cx[lane] = c.x, cy[lane] = c.y, cz[lane] = c.z;
+    ra[lane] = r_a, rb[lane] = r_b, rc[lane] = r_c;
+    edge[lane] = is_edge ? ~0u : 0u;
+  }
+};
+
+// boundary_distance's hint test for four triangles at once, in SSE2: edge_foot, the foot's
+// distance and the KKT tests (toward) with the same operations per lane in the same order, so
+// an accepted lane has boundary_distance's bits. Branch-free: where the scalar code returns
+// early (a zero-length edge, |k| ≥ 1, a clamped foot, a zero distance) the lane computes on a
+// stand-in value (never dividing by zero or taking the root of a negative number) and is
+// rejected. Returns a bit per lane: 1 = the hinted candidate is the minimum and finite, its
+// result in e[lane] (the hint stays); 0 = the caller runs boundary_distance.
+inline int hinted_lanes4(const HullLanes& l, HullDistance e[4]) {
+  const auto load = [](const float* p) { return _mm_loadu_ps(p); };
+  const auto add = [](__m128 a, __m128 b) { return _mm_add_ps(a, b); };
+  const auto sub = [](__m128 a, __m128 b) { return _mm_sub_ps(a, b); };
+  const auto mul = [](__m128 a, __m128 b) { return _mm_mul_ps(a, b); };
+  const auto dot = [&](__m128 x0, __m128 y0, __m128 z0, __m128 x1, __m128 y1, __m128 z1) {
+    return add(add(mul(x0, x1), mul(y0, y1)), mul(z0, z1));
+  };
+  const auto select = [](__m128 mask, __m128 a, __m128 b) {
+    return _mm_or_ps(_mm_and_ps(mask, a), _mm_andnot_ps(mask, b));
+  };
+  const __m128 zero = _mm_setzero_ps(), one = _mm_set1_ps(1.0f), sign = _mm_set1_ps(-0.0f);
+  const __m128 px = load(l.px), py = load(l.py), pz = load(l.pz);
+  const __m128 ax = load(l.ax), ay = load(l.ay), az = load(l.az);
+  const __m128 cx = load(l.cx), cy = load(l.cy), cz = load(l.cz);
+  const __m128 ra = load(l.ra), rc = load(l.rc);
+  const __m128 edge = _mm_castsi128_ps(_mm_loadu_si128(reinterpret_cast<const __m128i*>(l.edge)));
+  // edge_foot(p, c, r, i): the minimum along the frustum of balls a and b.
+  const __m128 ex = sub(load(l.bx), ax), ey = sub(load(l.by), ay), ez = sub(load(l.bz), az);
+  const __m128 length = _mm_sqrt_ps(dot(ex, ey, ez, ex, ey, ez));
+  const __m128 length_ok = _mm_cmpgt_ps(length, zero);
+  const __m128 safe_length = select(length_ok, length, one);
+  const __m128 slope = _mm_div_ps(sub(load(l.rb), ra), safe_length);
+  const __m128 k_ok = _mm_cmplt_ps(_mm_andnot_ps(sign, slope), one);
+  const __m128 k = _mm_and_ps(k_ok, slope);  // (0 in the rejected lanes: no overflow below)
+  const __m128 inverse_length = _mm_div_ps(one, safe_length);
+  const __m128 axis_x = mul(ex, inverse_length), axis_y = mul(ey, inverse_length), axis_z = mul(ez, inverse_length);
+  const __m128 ux = sub(px, ax), uy = sub(py, ay), uz = sub(pz, az);
+  const __m128 a = dot(ux, uy, uz, axis_x, axis_y, axis_z);
+  const __m128 wx = sub(ux, mul(a, axis_x)), wy = sub(uy, mul(a, axis_y)), wz = sub(uz, mul(a, axis_z));
+  const __m128 h = _mm_sqrt_ps(dot(wx, wy, wz, wx, wy, wz));
+  const __m128 root = _mm_sqrt_ps(sub(one, mul(k, k)));
+  const __m128 unclamped = add(a, _mm_div_ps(mul(k, h), root));
+  // std::clamp(unclamped, 0, length): (v < 0 ? 0 : length < v ? length : v).
+  const __m128 s = select(_mm_cmplt_ps(unclamped, zero), zero,
+                          select(_mm_cmplt_ps(safe_length, unclamped), safe_length, unclamped));
+  const __m128 inside_edge = _mm_and_ps(_mm_cmpgt_ps(unclamped, zero), _mm_cmplt_ps(unclamped, safe_length));
+  const __m128 edge_ok = _mm_and_ps(_mm_and_ps(length_ok, k_ok), inside_edge);
+  // The foot: on the edge, or ball a itself.
+  const __m128 fx = select(edge, add(ax, mul(s, axis_x)), ax);
+  const __m128 fy = select(edge, add(ay, mul(s, axis_y)), ay);
+  const __m128 fz = select(edge, add(az, mul(s, axis_z)), az);
+  const __m128 foot_radius = select(edge, add(ra, mul(k, s)), ra);
+  const __m128 ox = sub(px, fx), oy = sub(py, fy), oz = sub(pz, fz);
+  const __m128 distance = _mm_sqrt_ps(dot(ox, oy, oz, ox, oy, oz));
+  const __m128 distance_ok = _mm_cmpgt_ps(distance, zero);
+  const __m128 inverse_distance = _mm_div_ps(one, select(distance_ok, distance, one));
+  const __m128 nx = mul(ox, inverse_distance), ny = mul(oy, inverse_distance), nz = mul(oz, inverse_distance);
+  // toward(n, foot, foot_radius, centre, radius) = −n·(centre − foot) − (radius − foot_radius).
+  const auto toward4 = [&](__m128 x, __m128 y, __m128 z, __m128 r) {
+    return sub(_mm_xor_ps(dot(nx, ny, nz, sub(x, fx), sub(y, fy), sub(z, fz)), sign), sub(r, foot_radius));
+  };
+  const __m128 toward_c = _mm_cmpge_ps(toward4(cx, cy, cz, rc), zero);
+  const __m128 toward_b = _mm_cmpge_ps(toward4(load(l.bx), load(l.by), load(l.bz), load(l.rb)), zero);
+  const __m128 minimum = _mm_and_ps(toward_c, select(edge, edge_ok, toward_b));
+  alignas(16) float value[4], gx[4], gy[4], gz[4];
+  _mm_store_ps(value, sub(distance, foot_radius));
+  _mm_store_ps(gx, nx);
+  _mm_store_ps(gy, ny);
+  _mm_store_ps(gz, nz);
+  int accepted = _mm_movemask_ps(_mm_and_ps(minimum, distance_ok));
+  for (int lane = 0; lane < 4; ++lane) {
+    e[lane].value = value[lane];
+    e[lane].gradient = glm::vec3(gx[lane], gy[lane], gz[lane]);
+    if (!std::isfinite(e[lane].value) || !finite(e[lane].gradient)) accepted &= ~(1 << lane);
+  }
+  return accepted;
+}
+#else
+constexpr bool kHintedLanes = false;
+#endif
+
 // E_T(C_j)·∇E_T(C_j) − (rest level) for triangles [first, first + count), count ≤ kHullBlock:
 // the interior candidates of the whole block in one pass (interior_lane), the rest one by one
 // (boundary_distance). Same results as ball_hull_distance per triangle.
@@ -845,23 +945,58 @@ void triangle_forces(const FairingTopology& topo, const glm::vec3* skeletal, con
   for (; i < count; ++i)
     inside[i] = interior_lane(w0x[i], w0y[i], w0z[i], e1x[i], e1y[i], e1z[i], e2x[i], e2y[i], e2z[i], r0[i], d1[i],
                               d2[i], value[i], nx[i], ny[i], nz[i]);
+  // E_T's value and gradient per triangle: the interior candidate where it holds; else, with
+  // SSE2, the triangles whose hint names an edge or a vertex try it four at a time
+  // (hinted_lanes4), the rest (and those whose hint fails) go through boundary_distance.
+  const auto store_force = [&](uint32_t i, const HullDistance& e) {
+    const uint32_t t = first + i;
+    const glm::vec3 force = (rest_level ? e.value - rest_level[t] : e.value) * e.gradient;
+    ws.triangle_force[t] = finite(force) ? force : glm::vec3(0.0f);
+  };
+  const auto boundary = [&](uint32_t i) {
+    const uint32_t t = first + i;
+    const uint32_t* corner = topo.triangle_indices.data() + 3 * size_t{t};
+    const glm::vec3 c[3] = {skeletal[corner[0]], skeletal[corner[1]], skeletal[corner[2]]};
+    const float r[3] = {radius[corner[0]], radius[corner[1]], radius[corner[2]]};
+    store_force(i, boundary_distance(glm::vec3(centroid[i]), c, r, ws.hull_case.data() + t));
+  };
+  uint32_t hinted[kHullBlock];
+  uint32_t hinted_count = 0;
   for (uint32_t i = 0; i < count; ++i) {
     const uint32_t t = first + i;
-    glm::vec3 force(0.0f);
-    if (usable[i]) {
-      HullDistance e;
-      if (inside[i] && interior_result(value[i], nx[i], ny[i], nz[i], e)) {
-        ws.hull_case[t] = kHullCaseInterior;
-      } else {
-        const uint32_t* corner = topo.triangle_indices.data() + 3 * size_t{t};
-        const glm::vec3 c[3] = {skeletal[corner[0]], skeletal[corner[1]], skeletal[corner[2]]};
-        const float r[3] = {radius[corner[0]], radius[corner[1]], radius[corner[2]]};
-        e = boundary_distance(glm::vec3(centroid[i]), c, r, ws.hull_case.data() + t);
-      }
-      force = (rest_level ? e.value - rest_level[t] : e.value) * e.gradient;
+    if (!usable[i]) {
+      ws.triangle_force[t] = glm::vec3(0.0f);
+      continue;
     }
-    ws.triangle_force[t] = finite(force) ? force : glm::vec3(0.0f);
+    HullDistance e;
+    if (inside[i] && interior_result(value[i], nx[i], ny[i], nz[i], e)) {
+      ws.hull_case[t] = kHullCaseInterior;
+      store_force(i, e);
+    } else if (kHintedLanes && ws.hull_case[t] >= kHullCaseVertex && ws.hull_case[t] < kHullCaseVertex + 6) {
+      hinted[hinted_count++] = i;
+    } else {
+      boundary(i);
+    }
   }
+  uint32_t k = 0;
+#if defined(__SSE2__)
+  for (; k + 4 <= hinted_count; k += 4) {
+    HullLanes lanes;
+    for (uint32_t lane = 0; lane < 4; ++lane) {
+      const uint32_t i = hinted[k + lane];
+      const uint32_t* corner = topo.triangle_indices.data() + 3 * size_t{first + i};
+      const int which = ws.hull_case[first + i] - kHullCaseVertex;  // 0..2 a vertex, 3..5 an edge
+      const uint32_t a = corner[which % 3], b = corner[(which + 1) % 3], c = corner[(which + 2) % 3];
+      lanes.set(lane, centroid[i], skeletal[a], skeletal[b], skeletal[c], radius[a], radius[b], radius[c], which >= 3);
+    }
+    HullDistance e[4];
+    const int accepted = hinted_lanes4(lanes, e);
+    for (uint32_t lane = 0; lane < 4; ++lane)
+      if ((accepted >> lane) & 1) store_force(hinted[k + lane], e[lane]);
+      else boundary(hinted[k + lane]);
+  }
+#endif
+  for (; k < hinted_count; ++k) boundary(hinted[k]);
 }
 
 }  // namespace
