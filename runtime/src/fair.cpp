@@ -290,7 +290,6 @@ Grid build_grid(const FairingTopology& topo, const glm::vec3* skeletal, const fl
 
   const size_t cell_count = size_t(size) * size * size;
   std::fill(ws.cell_offsets.begin(), ws.cell_offsets.begin() + cell_count + 1, 0u);
-  std::fill(ws.cell_max_radius.begin(), ws.cell_max_radius.begin() + cell_count, 0.0f);
   const uint32_t none = std::numeric_limits<uint32_t>::max();
   for (uint32_t v = 0; v < vertex_count; ++v) {
     const glm::vec3& s = skeletal[v];
@@ -303,7 +302,6 @@ Grid build_grid(const FairingTopology& topo, const glm::vec3* skeletal, const fl
                      size_t(cell_coordinate(s.x, grid.origin.x, grid.inverse_cell.x, size));
     ws.vertex_cell[v] = static_cast<uint32_t>(c);
     ++ws.cell_offsets[c + 1];
-    ws.cell_max_radius[c] = std::max(ws.cell_max_radius[c], std::fabs(radius[v]));
   }
   for (size_t c = 0; c < cell_count; ++c) ws.cell_offsets[c + 1] += ws.cell_offsets[c];
   // Counting sort, stable: each cell lists its vertices in ascending order (determinism of
@@ -402,11 +400,10 @@ FieldValue field_at(const Grid& grid, const glm::vec3& x, const glm::vec3* skele
           }
           const size_t c = (size_t(z) * n + y) * n + xx;
           if (ws.cell_offsets[c] == ws.cell_offsets[c + 1]) continue;
-          // Prune: every S in the cell has g ≥ dist(x, cell)² − (max d in the cell)².
-          const glm::vec3 cell_lo = grid.origin + glm::vec3(float(xx), float(y), float(z)) * grid.cell;
-          const glm::vec3 outside = glm::max(glm::max(cell_lo - x, x - (cell_lo + grid.cell)), glm::vec3(0.0f));
-          const float bound = glm::dot(outside, outside) - ws.cell_max_radius[c] * ws.cell_max_radius[c];
-          if (bound >= best.f) continue;
+          // (No per-cell pruning by dist(x, cell)² − (largest d in the cell)² ≥ best: a cell
+          // that bound excludes cannot lower `best`, so the result is the same without it, and
+          // measured, its unpredictable branch cost more than scanning the cell four balls at
+          // a time: ~2 % of an evaluation on CesiumMan_loop2.)
           cell_minimum(x, skeletal, radius, ws, c, exclude, best);
         }
   }
@@ -1099,7 +1096,6 @@ FairingWorkspace make_fairing_workspace(const FairingTopology& topology, uint32_
   ws.force_direction.assign(n, glm::vec3(0.0f));
   ws.cell_offsets.assign(cells + 1, 0);
   ws.cell_vertices.assign(n, 0);
-  ws.cell_max_radius.assign(cells, 0.0f);
   ws.vertex_cell.assign(n, 0);
   ws.cell_x.assign(n + 3, 0.0f);
   ws.cell_y.assign(n + 3, 0.0f);
