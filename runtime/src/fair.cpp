@@ -912,8 +912,9 @@ constexpr bool kHintedLanes = false;
 #endif
 
 // E_T(C_j)·∇E_T(C_j) − (rest level) for triangles [first, first + count), count ≤ kHullBlock:
-// the interior candidates of the whole block in one pass (interior_lane), the rest one by one
-// (boundary_distance). Same results as ball_hull_distance per triangle.
+// the interior candidates of the whole block in one pass (interior_lane, four at a time with
+// SSE2), then the hinted boundary candidates four at a time (hinted_lanes4, SSE2), the rest one
+// by one (boundary_distance). Same results as ball_hull_distance per triangle.
 void triangle_forces(const FairingTopology& topo, const glm::vec3* skeletal, const float* radius, const glm::vec3* x,
                      const float* rest_level, uint32_t first, uint32_t count, FairingWorkspace& ws) {
   float w0x[kHullBlock], w0y[kHullBlock], w0z[kHullBlock], e1x[kHullBlock], e1y[kHullBlock], e1z[kHullBlock];
