@@ -110,8 +110,10 @@ struct FairingWorkspace {
         start_positions(CallbackAllocator<glm::vec3>(a)), smoothing_weight(CallbackAllocator<float>(a)),
         tangential_weight(CallbackAllocator<float>(a)),
         force_direction(CallbackAllocator<glm::vec3>(a)), cell_offsets(CallbackAllocator<uint32_t>(a)),
-        cell_vertices(CallbackAllocator<uint32_t>(a)), cell_max_radius(CallbackAllocator<float>(a)),
-        vertex_cell(CallbackAllocator<uint32_t>(a)), target_umbrella(CallbackAllocator<glm::vec3>(a)),
+        cell_vertices(CallbackAllocator<uint32_t>(a)),
+        vertex_cell(CallbackAllocator<uint32_t>(a)), cell_x(CallbackAllocator<float>(a)),
+        cell_y(CallbackAllocator<float>(a)), cell_z(CallbackAllocator<float>(a)), cell_rr(CallbackAllocator<float>(a)),
+        target_umbrella(CallbackAllocator<glm::vec3>(a)),
         target_bi_umbrella(CallbackAllocator<glm::vec3>(a)), iteration_start(CallbackAllocator<glm::vec3>(a)),
         minimiser(CallbackAllocator<uint32_t>(a)), next_minimiser(CallbackAllocator<uint32_t>(a)),
         reference_bi(CallbackAllocator<glm::vec3>(a)), bi_reference(CallbackAllocator<glm::vec3>(a)),
@@ -130,8 +132,9 @@ struct FairingWorkspace {
   Array<glm::vec3> force_direction;      // F/|F| per vertex (flow 4), 0 where F = 0
   Array<uint32_t> cell_offsets;          // grid_size³ + 1: skeletal vertices per cell (CSR)
   Array<uint32_t> cell_vertices;         // vertex_count
-  Array<float> cell_max_radius;          // grid_size³: largest d in the cell (search pruning)
   Array<uint32_t> vertex_cell;           // vertex_count: scratch for the bucket sort
+  // S and d² of cell_vertices[k] at k (vertex_count + 3: flow (5)'s search reads 4 at a time)
+  Array<float> cell_x, cell_y, cell_z, cell_rr;
   Array<glm::vec3> target_umbrella;      // rest U turned into this evaluation's frames (FairingRest)
   Array<glm::vec3> target_bi_umbrella;   // rest U², likewise
   Array<glm::vec3> iteration_start;      // positions before the last iteration (its net motion)

@@ -34,6 +34,12 @@ void refine_positions(const Deformable& deformable, const glm::vec3* control, gl
 // refined_vertex_count entries and may not alias `refined`.
 void refined_normals(const Deformable& deformable, const glm::vec3* refined, glm::vec3* normals);
 
+// dss::add_face_normals, to the bit (SSE2 where the compiler targets it, refine_normals.cpp):
+// adds each triangle's (p1 - p0) × (p2 - p0) to `sums` at its three corners, in triangle order.
+// `positions` holds vertex_count entries, every index is below it.
+void add_face_normals(const glm::vec3* positions, size_t vertex_count, const uint32_t* indices, size_t triangle_count,
+                      glm::vec3* sums);
+
 // Divides each of the `count` vectors by its length, in place, block-wise and branch-free so
 // the square roots and divisions vectorise (correctly rounded per lane: the bits of the scalar
 // v / length). A vector of length ≤ 1e-30 becomes +0 (dss::refined_vertex_normals' rule).

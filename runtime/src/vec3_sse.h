@@ -1,0 +1,53 @@
+// SSE2 loads and stores of glm::vec3 for the runtime's hand-vectorised kernels (refine.cpp,
+// refine_normals.cpp). SSE2 is part of x86-64 itself, so no ISA flag and no runtime dispatch:
+// the kernels compile these under `#if defined(__SSE2__)` and keep their portable loops as the
+// fallback. One vec3 sits in the low three lanes of an __m128; its lanes compute exactly what
+// the scalar code computes per component (the same IEEE operations in the same order, no
+// fused multiply-add), so the results keep the scalar code's bits. What the fourth lane holds
+// is never stored.
+#pragma once
+
+#if defined(__SSE2__)
+
+#include <glm/vec3.hpp>
+
+#include <emmintrin.h>
+
+#include <cstddef>
+
+namespace skelform::runtime::sse {
+
+// A whole-vector load of vectors[index]: x, y, z and, in the fourth lane, the next vector's x.
+// The last vector of the array has no next one, so it is read from `tail` (its copy, zero
+// padded) instead: no read past the end (a select, not a branch in the hot loops).
+struct Vec3Reader {
+  const glm::vec3* vectors;
+  size_t last;  // index of the last vector (0 for an empty array: then `tail` is never used)
+  alignas(16) float tail[4];
+
+  Vec3Reader(const glm::vec3* v, size_t count)
+      : vectors(v), last(count > 0 ? count - 1 : 0), tail{0.0f, 0.0f, 0.0f, 0.0f} {
+    if (count > 0) tail[0] = v[last].x, tail[1] = v[last].y, tail[2] = v[last].z;
+  }
+  __m128 operator()(size_t index) const {
+    const float* p = index < last ? &vectors[index].x : tail;
+    return _mm_loadu_ps(p);
+  }
+};
+
+// Exactly the 12 bytes of `v` (x, y in one 8-byte access, z in one 4-byte access: the same
+// access sizes as store3's, so a load after a store to the same vector is forwarded).
+inline __m128 load3(const glm::vec3& v) {
+  const __m128 xy = _mm_loadl_pi(_mm_setzero_ps(), reinterpret_cast<const __m64*>(&v.x));
+  return _mm_movelh_ps(xy, _mm_load_ss(&v.z));
+}
+
+// The low three lanes of `a` into `v`, nothing past it.
+inline void store3(glm::vec3& v, __m128 a) {
+  _mm_storel_pi(reinterpret_cast<__m64*>(&v.x), a);
+  _mm_store_ss(&v.z, _mm_movehl_ps(a, a));
+}
+
+}  // namespace skelform::runtime::sse
+
+#endif
