@@ -352,15 +352,13 @@ struct FieldValue {
 };
 
 // min of g(x, S) = |x − S|² − d_S² over the skeletal vertices of one cell other than
-// `exclude`, into `best`.
-void cell_minimum(const glm::vec3& x, const glm::vec3* skeletal, const float* radius, const FairingWorkspace& ws,
-                  size_t cell, uint32_t exclude, FieldValue& best) {
-#if defined(__SSE2__)
-  // Four candidates at a time from the cell-ordered copy (build_grid), g in each lane exactly
-  // as below ((dx² + dy²) + dz², minus d²); only a group with some g below the best so far is
-  // walked lane by lane, in order, with the scalar rule: the same minimum and the same ties.
-  static_cast<void>(skeletal), static_cast<void>(radius);
+// `exclude`, into `best`, from the balls' cell-ordered copy (build_grid: S and d² side by side).
+// g is (dx² + dy²) + dz² − d² in either path, the same minimum and the same ties.
+void cell_minimum(const glm::vec3& x, const FairingWorkspace& ws, size_t cell, uint32_t exclude, FieldValue& best) {
   const uint32_t begin = ws.cell_offsets[cell], end = ws.cell_offsets[cell + 1];
+#if defined(__SSE2__)
+  // Four candidates at a time; only a group with some g below the best so far is walked lane by
+  // lane, in order, with the portable rule.
   const __m128 px = _mm_set1_ps(x.x), py = _mm_set1_ps(x.y), pz = _mm_set1_ps(x.z);
   for (uint32_t k = begin; k < end; k += 4) {
     const __m128 dx = _mm_sub_ps(px, _mm_loadu_ps(ws.cell_x.data() + k));
@@ -378,11 +376,11 @@ void cell_minimum(const glm::vec3& x, const glm::vec3* skeletal, const float* ra
     }
   }
 #else
-  for (uint32_t k = ws.cell_offsets[cell]; k < ws.cell_offsets[cell + 1]; ++k) {
+  for (uint32_t k = begin; k < end; ++k) {
     const uint32_t s = ws.cell_vertices[k];
     if (s == exclude) continue;
-    const glm::vec3 d = x - skeletal[s];
-    const float g = glm::dot(d, d) - radius[s] * radius[s];
+    const float dx = x.x - ws.cell_x[k], dy = x.y - ws.cell_y[k], dz = x.z - ws.cell_z[k];
+    const float g = dx * dx + dy * dy + dz * dz - ws.cell_rr[k];
     if (g < best.f) best = {g, s};
   }
 #endif
@@ -392,14 +390,13 @@ void cell_minimum(const glm::vec3& x, const glm::vec3* skeletal, const float* ra
 // cells — the paper's 3×3×3, widened to rings of ⌈max d / cell⌉ (DESIGN.md), and further if
 // still no skeletal vertex was found, so f is always defined. Skeletal vertex `exclude` (the
 // vertex's own ball, relative to rest; none = no exclusion) is left out of the minimum.
-FieldValue field_at(const Grid& grid, const glm::vec3& x, const glm::vec3* skeletal, const float* radius,
-                    const FairingWorkspace& ws, uint32_t exclude = std::numeric_limits<uint32_t>::max()) {
+FieldValue field_at(const Grid& grid, const glm::vec3& x, const FairingWorkspace& ws, uint32_t exclude = std::numeric_limits<uint32_t>::max()) {
   const int n = grid.size;
   const int cx = cell_coordinate(x.x, grid.origin.x, grid.inverse_cell.x, n);
   const int cy = cell_coordinate(x.y, grid.origin.y, grid.inverse_cell.y, n);
   const int cz = cell_coordinate(x.z, grid.origin.z, grid.inverse_cell.z, n);
   FieldValue best;
-  cell_minimum(x, skeletal, radius, ws, (size_t(cz) * n + cy) * n + cx, exclude, best);
+  cell_minimum(x, ws, (size_t(cz) * n + cy) * n + cx, exclude, best);
   // The paper stops here when h of the own cell is negative. That makes f jump where the
   // own cell's minimum crosses 0 (a float rounding away at rest), so the neighbourhood's
   // minimum is always taken: the same f wherever the own cell's value is negative and
@@ -427,7 +424,7 @@ FieldValue field_at(const Grid& grid, const glm::vec3& x, const glm::vec3* skele
           // that bound excludes cannot lower `best`, so the result is the same without it, and
           // measured, its unpredictable branch cost more than scanning the cell four balls at
           // a time: ~2 % of an evaluation on CesiumMan_loop2.)
-          cell_minimum(x, skeletal, radius, ws, c, exclude, best);
+          cell_minimum(x, ws, c, exclude, best);
         }
   }
   return best;
@@ -460,7 +457,7 @@ void intersection_step(const FairingTopology& topo, const Grid& grid, const glm:
     const bool search = refresh_field && (ws.search_stride <= 1 || ws.minimiser[v] == none ||
                                           (ws.search_phase + v) % ws.search_stride == 0);
     if (search) {
-      field = field_at(grid, x[v], skeletal, radius, ws, relative ? v : none);
+      field = field_at(grid, x[v], ws, relative ? v : none);
       ws.minimiser[v] = field.minimiser;
     } else if (refresh_field) {
       // Tracking (FairingParams::search_stride): the best of the vertex's own ball (not
@@ -746,8 +743,8 @@ inline void interior_lanes4(const float* w0x, const float* w0y, const float* w0z
 
 // The interior candidate as a HullDistance, if it is the minimum and finite.
 bool interior_result(float value, float nx, float ny, float nz, HullDistance& result) {
-  result.value = static_cast<float>(value);
-  result.gradient = glm::vec3(float(nx), float(ny), float(nz));
+  result.value = value;
+  result.gradient = glm::vec3(nx, ny, nz);
   return std::isfinite(result.value) && finite(result.gradient);
 }
 
@@ -782,8 +779,8 @@ HullDistance boundary_distance(const glm::vec3& p, const glm::vec3* c, const flo
                                        : toward(n, foot, foot_radius, c[k], r[k]) >= 0.0f;
         if (minimum) {
           HullDistance result;
-          result.value = static_cast<float>(distance - foot_radius);
-          result.gradient = glm::vec3(n);
+          result.value = distance - foot_radius;
+          result.gradient = n;
           if (std::isfinite(result.value) && finite(result.gradient)) return result;
         }
       }
@@ -817,8 +814,8 @@ HullDistance boundary_distance(const glm::vec3& p, const glm::vec3* c, const flo
   if (hint) *hint = best_case;
 
   HullDistance result;
-  result.value = std::isfinite(best) ? static_cast<float>(best) : 0.0f;
-  result.gradient = std::isfinite(best) ? glm::vec3(best_gradient) : glm::vec3(0.0f);
+  result.value = std::isfinite(best) ? best : 0.0f;
+  result.gradient = std::isfinite(best) ? best_gradient : glm::vec3(0.0f);
   return result;
 }
 
@@ -991,7 +988,7 @@ void triangle_forces(const FairingTopology& topo, const glm::vec3* skeletal, con
     const uint32_t* corner = topo.triangle_indices.data() + 3 * size_t{t};
     const glm::vec3 c[3] = {skeletal[corner[0]], skeletal[corner[1]], skeletal[corner[2]]};
     const float r[3] = {radius[corner[0]], radius[corner[1]], radius[corner[2]]};
-    store_force(i, boundary_distance(glm::vec3(centroid[i]), c, r, ws.hull_case.data() + t));
+    store_force(i, boundary_distance(centroid[i], c, r, ws.hull_case.data() + t));
   };
   uint32_t hinted[kHullBlock];
   uint32_t hinted_count = 0;
@@ -1322,7 +1319,7 @@ FairingRest make_fairing_rest(const FairingTopology& topology, const glm::vec3* 
   const Grid grid = build_grid(topology, skeletal, radius, positions, size, ws);
   for (uint32_t v = 0; v < n; ++v) {
     if (topology.fixed[v]) continue;
-    const FieldValue field = field_at(grid, positions[v], skeletal, radius, ws);
+    const FieldValue field = field_at(grid, positions[v], ws);
     if (field.minimiser == std::numeric_limits<uint32_t>::max()) continue;
     if (field.minimiser != v) {
       const glm::vec3 d = positions[v] - skeletal[v];
