@@ -12,13 +12,10 @@
 #include <glm/mat4x4.hpp>
 
 #include <algorithm>
-#include <array>
 #include <cmath>
-#include <cstring>
 #include <fstream>
 #include <iterator>
 #include <optional>
-#include <sstream>
 
 namespace skelform::samples {
 
