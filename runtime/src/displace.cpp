@@ -11,8 +11,8 @@
 // authored; under deformation the frame varies smoothly over the refined surface, so the
 // carried normals stay continuous. A primitive without authored normals gets the
 // area-weighted normals of its deformed triangles, the same rule the loader used for its rest
-// normals (dss::add_face_normals, then refine.h's normalise_vectors: block-wise and
-// branch-free, the bits of the scalar division).
+// normals (refine.h's add_face_normals and normalise_vectors: SSE2 and block-wise, the bits
+// of dss::add_face_normals and of the scalar division).
 //
 // The per-vertex loop works in blocks of kBlock dense vertices: one pass gathers the bound
 // triangles' corners and interpolates them (the point q(b), the unnormalised normal, the edge
@@ -158,8 +158,8 @@ void primitive_face_normals(const Deformable& d, const PrimitiveRecord& primitiv
                             const glm::vec3* refined_normal, const DenseOutput& out) {
   const uint32_t first = primitive.first_vertex, end = primitive.first_vertex + primitive.vertex_count;
   for (uint32_t v = first; v < end; ++v) out.normals[v] = glm::vec3(0.0f);
-  dss::add_face_normals(out.positions, d.dense_triangles.data() + 3 * size_t(primitive.first_triangle),
-                        primitive.triangle_count, out.normals);
+  add_face_normals(out.positions, d.vertex_count, d.dense_triangles.data() + 3 * size_t(primitive.first_triangle),
+                   primitive.triangle_count, out.normals);
   // The rare vertex without a usable sum is redone with its frame afterwards.
   uint8_t usable[kBlock];
   for (uint32_t start = first; start < end; start += kBlock) {
