@@ -9,6 +9,7 @@
 #include "skelform/bake/metrics.h"
 #include "skelform/bake/self_intersection.h"
 
+#include <cmath>
 #include <cstring>
 #include <map>
 #include <sstream>
@@ -238,4 +239,48 @@ TEST_CASE("fair animation: CesiumMan held mid-animation stops moving and its ani
   const double jitter = held_pose_jitter(*model, poses.back(), 30, 10);
   MESSAGE("CesiumMan held at frame 29: jitter " << jitter << " of the diagonal after 30 evaluations");
   CHECK(jitter < 1e-6);
+}
+
+TEST_CASE("fair animation: one iteration per incremental evaluation by default; a pose jump or from_rest converges") {
+  // The budget the C API documents (skelform.h sf_eval_options, docs/runtime-api.md
+  // "Fairing"): fairing_iterations = 0 means 1 per incremental evaluation; the first
+  // evaluation, SF_EVAL_FROM_REST and a detected pose jump run to convergence (at most 64).
+  const skelform::test::RuntimeModel& model = skelform::test::capsule_model();
+  Instance instance(model.asset);
+  const auto set_bend = [&](float angle) {
+    const std::vector<float> joints = flat(skelform::test::bend_pose(model, 1, angle, glm::vec3(0, 1, 0)));
+    REQUIRE(sf_instance_set_joint_matrices(instance.instance, joints.data(), model.inverse_bind.size(), 0) == SF_OK);
+  };
+  const auto evaluate = [&](const sf_eval_options& options) {
+    REQUIRE(sf_instance_evaluate(instance.instance, &options) == SF_OK);
+    uint32_t iterations = 0;
+    float residual = -1.0f;
+    REQUIRE(sf_instance_fairing_stats(instance.instance, &iterations, &residual) == SF_OK);
+    CHECK(std::isfinite(residual));
+    return iterations;
+  };
+  const sf_eval_options defaults{};
+  set_bend(1.2f);
+  const uint32_t first = evaluate(defaults);  // no previous evaluation: from rest
+  MESSAGE("first evaluation (capsule bent 1.2 rad): " << first << " iterations");
+  CHECK(first > 1);
+  CHECK(first <= 64);
+  set_bend(1.25f);  // the next frame of a motion
+  CHECK(evaluate(defaults) == 1);
+  sf_eval_options three{};
+  three.fairing_iterations = 3;
+  set_bend(1.3f);
+  CHECK(evaluate(three) == 3);
+  set_bend(-1.3f);  // a teleport into the opposite bend: detected, converged afresh
+  const uint32_t jump = evaluate(defaults);
+  MESSAGE("pose jump from 1.3 to -1.3 rad: " << jump << " iterations");
+  CHECK(jump > 1);
+  CHECK(jump <= 64);
+  set_bend(-1.25f);
+  CHECK(evaluate(defaults) == 1);
+  sf_eval_options from_rest{};
+  from_rest.flags = SF_EVAL_FROM_REST;
+  const uint32_t fresh = evaluate(from_rest);  // same pose, but the caller asks for a fresh start
+  CHECK(fresh > 1);
+  CHECK(fresh <= 64);
 }

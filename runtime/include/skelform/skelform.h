@@ -271,22 +271,23 @@ typedef struct sf_eval_options {
   /* Fairing (paper eqs. (4) and (5)), SF_METHOD_SKELFORM only; docs/runtime-api.md "Fairing".
    * Zero in every field = the defaults. */
   uint32_t fairing_flags;      /* SF_FAIR_* bits; 0 = both flows, explicit steps */
-  uint32_t fairing_iterations; /* iterations per incremental evaluation; 0 = 2 */
-  float fairing_step;          /* τ of flow (4), dimensionless; 0 = 0.2 (explicit) / 0.5 (semi-implicit) */
-  float intersection_step;     /* τ of flow (5), dimensionless; 0 = 0.15 */
+  uint32_t fairing_iterations; /* iterations per incremental evaluation, <= 1000; 0 = 1 */
+  float fairing_step;          /* τ of flow (4), dimensionless, <= 10; 0 = 0.2 (explicit) / 0.5 (semi-implicit) */
+  float intersection_step;     /* τ of flow (5), dimensionless, <= 10; 0 = 0.15 */
   uint32_t intersection_grid;  /* cells per axis of flow (5)'s grid, 1 .. 32; 0 = 20 (the paper's) */
 } sf_eval_options;
 
 /* Evaluates the instance's current input (joint matrices or handle targets) into its
  * internal buffers. Incremental by default: the fairing warm-starts from the previous
  * evaluation's correction (carried in each control vertex's local frame, so it follows the
- * character through translation and rotation) and runs `fairing_iterations` iterations; when
- * the first iteration still moves a vertex by more than 1e-3 of the bounding-box diagonal (a
- * pose jump: teleport into another pose, a new animation), it continues until converged, at
- * most 64 iterations. SF_EVAL_FROM_REST discards the warm start and runs to convergence (at
- * most 64 iterations): use it for the first frame and whenever the caller knows the pose
- * jumped. Deterministic: the same sequence of inputs gives the same output bits. Never
- * allocates. */
+ * character through translation and rotation) and runs `fairing_iterations` iterations. A
+ * pose jump (the local shape of the reconstruction changed at more than 2 % of the control
+ * vertices since the last evaluation, as a teleport into another pose or a new animation
+ * does; or a switch between joint matrices and handles) discards the warm start and runs to
+ * convergence, at most 64 iterations; so does SF_EVAL_FROM_REST: use it for the first frame
+ * and whenever the caller knows the pose jumped. A pose held bit for bit comes to rest (the
+ * steps halve at each such evaluation). Deterministic: the same sequence of inputs gives the
+ * same output bits. Never allocates. */
 SF_API sf_result sf_instance_evaluate(sf_instance* instance, const sf_eval_options* options);
 
 /* Where sf_instance_write puts one primitive's vertices. A NULL pointer skips that stream.
