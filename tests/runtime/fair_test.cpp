@@ -346,11 +346,66 @@ Measured measure(const BentCapsule& scene, const std::vector<glm::vec3>& positio
           (skelform::bake::enclosed_volume(posed) - rest_volume) / rest_volume};
 }
 
+// The fairing from rest as fair_stage.cpp runs it, relative to the rest pose (fair.h
+// FairingRest): calls of kConvergenceChunk iterations, steps annealed by kAnnealRate per chunk
+// after kAnnealAfter, until the residual is below kConvergedResidual or kConvergenceIterations
+// are done; frames Procrustes-fitted to rest. With `report`, a message per chunk.
+Measured fair_from_rest(const BentCapsule& scene, bool semi_implicit, bool report) {
+  const std::vector<glm::vec3> skeletal = scene.skeletal_deformed();
+  const std::vector<glm::vec3> unfaired = scene.reconstructed();
+  std::vector<glm::vec3> rest_positions;
+  for (const Vec3& p : scene.rest.positions) rest_positions.push_back(glm::vec3(p));
+  Fairing fairing(scene.rest);
+  const FairingRest rest = make_fairing_rest(fairing.topology, scene.skeletal_rest.data(), scene.radius.data(),
+                                             rest_positions.data(), 20, fairing.workspace, {});
+  std::vector<glm::mat3> frames(unfaired.size());
+  fairing_frames(fairing.topology, skeletal.data(), unfaired.data(), frames.data(), &rest);
+  FairingParams params;
+  params.semi_implicit = semi_implicit;
+  params.iterations = skelform::runtime::kConvergenceChunk;
+  params.smoothing_reference = unfaired.data();
+  const float fold = semi_implicit ? skelform::runtime::kDefaultFoldStepSemiImplicit
+                                   : skelform::runtime::kDefaultFoldStepExplicit;
+  const std::string name = semi_implicit ? "semi-implicit" : "explicit";
+  std::vector<glm::vec3> x = unfaired;
+  double seconds = 0.0;
+  float gain = 1.0f, residual = 0.0f;
+  uint32_t done = 0;
+  while (done < skelform::runtime::kConvergenceIterations) {
+    params.fold_step = fold * gain;
+    params.intersection_step = skelform::runtime::kDefaultIntersectionStep * gain;
+    const auto start = std::chrono::steady_clock::now();
+    residual = fair_run(fairing.topology, skeletal.data(), scene.radius.data(), x.data(), x.size(), params,
+                        fairing.workspace, &rest, frames.data());
+    seconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    done += params.iterations;
+    if (report) {
+      const Measured m = measure(scene, x);
+      MESSAGE(name << " after " << done << " iterations: " << m.intersections << " pairs, volume "
+                   << 100 * m.volume_change << " %, residual " << residual);
+    }
+    if (residual < skelform::runtime::kConvergedResidual) break;
+    if (done >= skelform::runtime::kAnnealAfter) gain *= skelform::runtime::kAnnealRate;
+  }
+  if (report) MESSAGE(name << ": " << 1e3 * seconds / done << " ms per iteration");
+  return measure(scene, x);
+}
+
 }  // namespace
 
 // The issue's target for skelform on this scene: 0 intersecting pairs and |volume change| < 3 %,
 // where LBS shows intersections and volume loss. NOT reached yet (see the messages): the
 // volume part is (about −2.6 %), the pairs part is not (109; LBS 131, the unfaired reconstruction 141).
+// Why the reconstruction starts with a fold: on the inner side (rest point (0, −r, z)) M is the
+// rest point turned about the joint by φ(z) = θ·w(z), w the blend weight, so along z it moves
+// by (1 − r φ'(z)) ẑ − z φ'(z) ŷ in the turned frame. At the joint (z = 0) that runs backwards
+// once r θ max w' > 1: with the smoothstep over a blend zone b wide (max w' = 1.5 / b), for
+// θ > b / (1.5 r), 38 degrees here (r = b = 0.2). The inner side then loops back over itself
+// in the blend zone, before any flow runs (the unfaired pairs), and the loop is larger the
+// larger θ. It is the offset of the bent axis by more than its radius of curvature, as for any
+// surface at distance d from a skeleton that turns within less than d; the union of the balls
+// has a crease there, and the vertices of the loop have to end on one side of it or the other.
+// The test below this one shows the fairing removing the fold at 40 degrees.
 // The tubes of the two bones overlap on the inner side of the bend up to ~0.35 from the joint.
 // Of the 109 pairs (explicit), 46 lie inside the blend zone (|z| ≤ 0.1 at rest, where the
 // skeletal vertices of both bones gather at the joint), 12 between it and a bone, and 51
@@ -369,59 +424,37 @@ TEST_CASE("fair: bent (120 deg) and twisted (150 deg) capsule: skelform has no s
           doctest::skip()) {
   const BentCapsule scene;
   const Measured lbs = measure(scene, scene.lbs_mesh());
-  const std::vector<glm::vec3> skeletal = scene.skeletal_deformed();
-  const std::vector<glm::vec3> unfaired = scene.reconstructed();
-  const Measured reconstruction = measure(scene, unfaired);
+  const Measured reconstruction = measure(scene, scene.reconstructed());
   MESSAGE("control mesh: " << scene.rest.positions.size() << " vertices, " << scene.rest.triangles.size() << " triangles");
   MESSAGE("LBS: " << lbs.intersections << " pairs, volume " << 100 * lbs.volume_change << " %");
   MESSAGE("S' + d N (unfaired): " << reconstruction.intersections << " pairs, volume "
                                    << 100 * reconstruction.volume_change << " %");
   CHECK(lbs.intersections > 0);
   CHECK(lbs.volume_change < 0.0);
-  // As the runtime runs them: every term relative to the rest pose (fair.h FairingRest).
-  std::vector<glm::vec3> rest_positions;
-  for (const Vec3& p : scene.rest.positions) rest_positions.push_back(glm::vec3(p));
-  Fairing rest_fairing(scene.rest);
-  const FairingRest rest = make_fairing_rest(rest_fairing.topology, scene.skeletal_rest.data(), scene.radius.data(),
-                                             rest_positions.data(), 20, rest_fairing.workspace, {});
-  // From rest as fair_stage.cpp runs it: calls of kConvergenceChunk iterations, steps
-  // annealed by kAnnealRate per chunk after kAnnealAfter, until the residual is below
-  // kConvergedResidual or kConvergenceIterations are done; frames Procrustes-fitted to rest.
-  std::vector<glm::mat3> frames(unfaired.size());
-  fairing_frames(rest_fairing.topology, skeletal.data(), unfaired.data(), frames.data(), &rest);
   for (bool semi_implicit : {false, true}) {
-    Fairing fairing(scene.rest);
-    FairingParams params;
-    params.semi_implicit = semi_implicit;
-    params.iterations = skelform::runtime::kConvergenceChunk;
-    params.smoothing_reference = unfaired.data();
-    const float fold = semi_implicit ? skelform::runtime::kDefaultFoldStepSemiImplicit
-                                     : skelform::runtime::kDefaultFoldStepExplicit;
-    std::vector<glm::vec3> x = unfaired;
-    double seconds = 0.0;
-    float gain = 1.0f, residual = 0.0f;
-    uint32_t done = 0;
-    while (done < skelform::runtime::kConvergenceIterations) {
-      params.fold_step = fold * gain;
-      params.intersection_step = skelform::runtime::kDefaultIntersectionStep * gain;
-      const auto start = std::chrono::steady_clock::now();
-      residual = fair_run(fairing.topology, skeletal.data(), scene.radius.data(), x.data(), x.size(), params,
-                          fairing.workspace, &rest, frames.data());
-      seconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-      done += params.iterations;
-      const Measured m = measure(scene, x);
-      MESSAGE(std::string(semi_implicit ? "semi-implicit" : "explicit")
-              << " after " << done << " iterations: " << m.intersections << " pairs, volume "
-              << 100 * m.volume_change << " %, residual " << residual);
-      if (residual < skelform::runtime::kConvergedResidual) break;
-      if (done >= skelform::runtime::kAnnealAfter) gain *= skelform::runtime::kAnnealRate;
-    }
-    const Measured faired = measure(scene, x);
-    MESSAGE(std::string(semi_implicit ? "semi-implicit" : "explicit")
-            << ": " << 1e3 * seconds / done << " ms per iteration");
+    const Measured faired = fair_from_rest(scene, semi_implicit, true);
     CHECK(faired.intersections == 0);
     CHECK(std::fabs(faired.volume_change) < 0.03);
   }
+}
+
+// Where the fairing does remove the reconstruction's fold: the same capsule bent 40 degrees,
+// without twist. Measured with this scene (pairs LBS / unfaired / faired explicit): 30 deg
+// 0 / 0 / 0, 35 deg 0 / 0 / 0, 40 deg 9 / 19 / 0, 45 deg 29 / 29 / 1, 50 deg 33 / 33 / 1, 60
+// deg 43 / 43 / 17, 120 deg 93 / 93 / 63. The fold starts near 38 degrees, as the comment
+// above predicts. A guard against losing what works, not the issue's target (above).
+TEST_CASE("fair: capsule bent 40 deg: the reconstruction folds on the inner side and the fairing removes the fold") {
+  const BentCapsule scene(40.0, 0.0);
+  const Measured lbs = measure(scene, scene.lbs_mesh());
+  const Measured reconstruction = measure(scene, scene.reconstructed());
+  const Measured faired = fair_from_rest(scene, false, false);
+  MESSAGE("bent 40 deg: LBS " << lbs.intersections << " pairs, volume " << 100 * lbs.volume_change
+                              << " %; unfaired " << reconstruction.intersections << " pairs; faired "
+                              << faired.intersections << " pairs, volume " << 100 * faired.volume_change << " %");
+  CHECK(lbs.intersections > 0);
+  CHECK(reconstruction.intersections > 0);  // the fold is there to remove
+  CHECK(faired.intersections == 0);
+  CHECK(std::fabs(faired.volume_change) < std::fabs(lbs.volume_change));
 }
 
 TEST_CASE("fair: the rest pose is nearly a fixed point - runs are deterministic / finite and scale-invariant") {
