@@ -1219,6 +1219,9 @@ namespace skelform::runtime {
 
 void fairing_frames(const FairingTopology& topology, const glm::vec3* skeletal, const glm::vec3* positions,
                     glm::mat3* frames, const FairingRest* rest, glm::vec3* umbrellas, float* mean_edges) {
+#if defined(__SSE2__)
+  const sse::Vec3Reader read(positions, topology.vertex_count);
+#endif
   for (uint32_t v = 0; v < topology.vertex_count; ++v) {
     glm::vec3 normal = positions[v] - skeletal[v];
     float length = glm::length(normal);
@@ -1254,7 +1257,43 @@ void fairing_frames(const FairingTopology& topology, const glm::vec3* skeletal, 
     if (procrustes || umbrellas || mean_edges) {
       float dot = 0.0f, cross = 0.0f, edge_sum = 0.0f;
       glm::vec3 sum(0.0f);
-      for (uint32_t k = begin; k < end; ++k) {
+      uint32_t k = begin;
+#if defined(__SSE2__)
+      // Four one-ring edges at a time (fair_stage's call, which asks for all three): the edges'
+      // lengths and their rest-fit products lane by lane, in the scalar loop's operations and
+      // order, then summed into the scalar accumulators edge by edge, in one-ring order.
+      if (procrustes && umbrellas && mean_edges) {
+        const __m128 cx = _mm_set1_ps(positions[v].x), cy = _mm_set1_ps(positions[v].y),
+                     cz = _mm_set1_ps(positions[v].z);
+        const __m128 tx = _mm_set1_ps(tangent.x), ty = _mm_set1_ps(tangent.y), tz = _mm_set1_ps(tangent.z);
+        const __m128 bx = _mm_set1_ps(bitangent.x), by = _mm_set1_ps(bitangent.y), bz = _mm_set1_ps(bitangent.z);
+        for (; k + 4 <= end; k += 4) {
+          __m128 p[4];
+          for (int j = 0; j < 4; ++j) p[j] = read(topology.neighbours[k + j]);
+          __m128 px = p[0], py = p[1], pz = p[2], pw = p[3];
+          _MM_TRANSPOSE4_PS(px, py, pz, pw);
+          const __m128 ex = _mm_sub_ps(px, cx), ey = _mm_sub_ps(py, cy), ez = _mm_sub_ps(pz, cz);
+          const __m128 length = _mm_sqrt_ps(
+              _mm_add_ps(_mm_add_ps(_mm_mul_ps(ex, ex), _mm_mul_ps(ey, ey)), _mm_mul_ps(ez, ez)));
+          const __m128 now_x = _mm_add_ps(_mm_add_ps(_mm_mul_ps(ex, tx), _mm_mul_ps(ey, ty)), _mm_mul_ps(ez, tz));
+          const __m128 now_y = _mm_add_ps(_mm_add_ps(_mm_mul_ps(ex, bx), _mm_mul_ps(ey, by)), _mm_mul_ps(ez, bz));
+          const __m128 then_01 = _mm_loadu_ps(&rest->edge_2d[k].x), then_23 = _mm_loadu_ps(&rest->edge_2d[k + 2].x);
+          const __m128 then_x = _mm_shuffle_ps(then_01, then_23, _MM_SHUFFLE(2, 0, 2, 0));
+          const __m128 then_y = _mm_shuffle_ps(then_01, then_23, _MM_SHUFFLE(3, 1, 3, 1));
+          alignas(16) float lengths[4], dots[4], crosses[4];
+          _mm_store_ps(lengths, length);
+          _mm_store_ps(dots, _mm_add_ps(_mm_mul_ps(then_x, now_x), _mm_mul_ps(then_y, now_y)));
+          _mm_store_ps(crosses, _mm_sub_ps(_mm_mul_ps(then_x, now_y), _mm_mul_ps(then_y, now_x)));
+          for (int j = 0; j < 4; ++j) {
+            sum += positions[topology.neighbours[k + j]];
+            edge_sum += lengths[j];
+            dot += dots[j];
+            cross += crosses[j];
+          }
+        }
+      }
+#endif
+      for (; k < end; ++k) {
         const glm::vec3 edge = positions[topology.neighbours[k]] - positions[v];
         if (umbrellas) sum += positions[topology.neighbours[k]];
         if (mean_edges) edge_sum += glm::length(edge);
