@@ -49,6 +49,24 @@ constexpr float kRestShapeRadius = 3.0f;
 // (intersection_step).
 constexpr float kIntersectionMargin = 0.75f;
 
+#if defined(__SSE2__)
+// Four float lanes (SSE2) for the kernels below that evaluate a scalar formula for four
+// triangles, balls or edges at once: each helper is one IEEE operation per lane (no fused
+// multiply-add), so a lane computes what the scalar code computes, in the same order.
+namespace lane4 {
+inline __m128 load(const float* p) { return _mm_loadu_ps(p); }
+inline __m128 add(__m128 a, __m128 b) { return _mm_add_ps(a, b); }
+inline __m128 sub(__m128 a, __m128 b) { return _mm_sub_ps(a, b); }
+inline __m128 mul(__m128 a, __m128 b) { return _mm_mul_ps(a, b); }
+// glm::dot's order: (x0 x1 + y0 y1) + z0 z1.
+inline __m128 dot(__m128 x0, __m128 y0, __m128 z0, __m128 x1, __m128 y1, __m128 z1) {
+  return add(add(mul(x0, x1), mul(y0, y1)), mul(z0, z1));
+}
+// mask ? a : b, lane by lane (mask lanes all ones or all zeros, as the comparisons give them).
+inline __m128 select(__m128 mask, __m128 a, __m128 b) { return _mm_or_ps(_mm_and_ps(mask, a), _mm_andnot_ps(mask, b)); }
+}  // namespace lane4
+#endif
+
 bool finite(const glm::vec3& v) { return std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z); }
 
 // The rest values the flows are measured from (FairingRest), in this evaluation's frames;
@@ -364,8 +382,7 @@ void cell_minimum(const glm::vec3& x, const FairingWorkspace& ws, size_t cell, u
     const __m128 dx = _mm_sub_ps(px, _mm_loadu_ps(ws.cell_x.data() + k));
     const __m128 dy = _mm_sub_ps(py, _mm_loadu_ps(ws.cell_y.data() + k));
     const __m128 dz = _mm_sub_ps(pz, _mm_loadu_ps(ws.cell_z.data() + k));
-    const __m128 g = _mm_sub_ps(_mm_add_ps(_mm_add_ps(_mm_mul_ps(dx, dx), _mm_mul_ps(dy, dy)), _mm_mul_ps(dz, dz)),
-                                _mm_loadu_ps(ws.cell_rr.data() + k));
+    const __m128 g = lane4::sub(lane4::dot(dx, dy, dz, dx, dy, dz), lane4::load(ws.cell_rr.data() + k));
     const uint32_t lanes = std::min(4u, end - k);
     if ((_mm_movemask_ps(_mm_cmplt_ps(g, _mm_set1_ps(best.f))) & ((1 << lanes) - 1)) == 0) continue;
     alignas(16) float values[4];
@@ -689,13 +706,7 @@ inline void interior_lanes4(const float* w0x, const float* w0y, const float* w0z
                             const float* e1y, const float* e1z, const float* e2x, const float* e2y,
                             const float* e2z, const float* r0, const float* d1, const float* d2, float* value,
                             float* nx, float* ny, float* nz, bool* inside) {
-  const auto load = [](const float* p) { return _mm_loadu_ps(p); };
-  const auto add = [](__m128 a, __m128 b) { return _mm_add_ps(a, b); };
-  const auto sub = [](__m128 a, __m128 b) { return _mm_sub_ps(a, b); };
-  const auto mul = [](__m128 a, __m128 b) { return _mm_mul_ps(a, b); };
-  const auto select = [](__m128 mask, __m128 a, __m128 b) {
-    return _mm_or_ps(_mm_and_ps(mask, a), _mm_andnot_ps(mask, b));
-  };
+  using namespace lane4;
   const __m128 zero = _mm_setzero_ps(), one = _mm_set1_ps(1.0f);
   const __m128 sign = _mm_set1_ps(-0.0f);
   const __m128 ax = load(e1x), ay = load(e1y), az = load(e1z), bx = load(e2x), by = load(e2y), bz = load(e2z);
@@ -869,16 +880,7 @@ struct HullLanes {
 // rejected. Returns a bit per lane: 1 = the hinted candidate is the minimum and finite, its
 // result in e[lane] (the hint stays); 0 = the caller runs boundary_distance.
 inline int hinted_lanes4(const HullLanes& l, HullDistance e[4]) {
-  const auto load = [](const float* p) { return _mm_loadu_ps(p); };
-  const auto add = [](__m128 a, __m128 b) { return _mm_add_ps(a, b); };
-  const auto sub = [](__m128 a, __m128 b) { return _mm_sub_ps(a, b); };
-  const auto mul = [](__m128 a, __m128 b) { return _mm_mul_ps(a, b); };
-  const auto dot = [&](__m128 x0, __m128 y0, __m128 z0, __m128 x1, __m128 y1, __m128 z1) {
-    return add(add(mul(x0, x1), mul(y0, y1)), mul(z0, z1));
-  };
-  const auto select = [](__m128 mask, __m128 a, __m128 b) {
-    return _mm_or_ps(_mm_and_ps(mask, a), _mm_andnot_ps(mask, b));
-  };
+  using namespace lane4;
   const __m128 zero = _mm_setzero_ps(), one = _mm_set1_ps(1.0f), sign = _mm_set1_ps(-0.0f);
   const __m128 px = load(l.px), py = load(l.py), pz = load(l.pz);
   const __m128 ax = load(l.ax), ay = load(l.ay), az = load(l.az);
@@ -1272,11 +1274,9 @@ void fairing_frames(const FairingTopology& topology, const glm::vec3* skeletal, 
           for (int j = 0; j < 4; ++j) p[j] = read(topology.neighbours[k + j]);
           __m128 px = p[0], py = p[1], pz = p[2], pw = p[3];
           _MM_TRANSPOSE4_PS(px, py, pz, pw);
-          const __m128 ex = _mm_sub_ps(px, cx), ey = _mm_sub_ps(py, cy), ez = _mm_sub_ps(pz, cz);
-          const __m128 length = _mm_sqrt_ps(
-              _mm_add_ps(_mm_add_ps(_mm_mul_ps(ex, ex), _mm_mul_ps(ey, ey)), _mm_mul_ps(ez, ez)));
-          const __m128 now_x = _mm_add_ps(_mm_add_ps(_mm_mul_ps(ex, tx), _mm_mul_ps(ey, ty)), _mm_mul_ps(ez, tz));
-          const __m128 now_y = _mm_add_ps(_mm_add_ps(_mm_mul_ps(ex, bx), _mm_mul_ps(ey, by)), _mm_mul_ps(ez, bz));
+          const __m128 ex = lane4::sub(px, cx), ey = lane4::sub(py, cy), ez = lane4::sub(pz, cz);
+          const __m128 length = _mm_sqrt_ps(lane4::dot(ex, ey, ez, ex, ey, ez));
+          const __m128 now_x = lane4::dot(ex, ey, ez, tx, ty, tz), now_y = lane4::dot(ex, ey, ez, bx, by, bz);
           const __m128 then_01 = _mm_loadu_ps(&rest->edge_2d[k].x), then_23 = _mm_loadu_ps(&rest->edge_2d[k + 2].x);
           const __m128 then_x = _mm_shuffle_ps(then_01, then_23, _MM_SHUFFLE(2, 0, 2, 0));
           const __m128 then_y = _mm_shuffle_ps(then_01, then_23, _MM_SHUFFLE(3, 1, 3, 1));

@@ -1,5 +1,5 @@
 // SSE2 loads and stores of glm::vec3 for the runtime's hand-vectorised kernels (refine.cpp,
-// refine_normals.cpp). SSE2 is part of x86-64 itself, so no ISA flag and no runtime dispatch:
+// refine_normals.cpp, fair.cpp). SSE2 is part of x86-64 itself, so no ISA flag and no runtime dispatch:
 // the kernels compile these under `#if defined(__SSE2__)` and keep their portable loops as the
 // fallback. One vec3 sits in the low three lanes of an __m128; its lanes compute exactly what
 // the scalar code computes per component (the same IEEE operations in the same order, no
