@@ -79,43 +79,48 @@ void fair_stage(sf_instance& instance, const FairStageOptions& options) {
     for (size_t v = 0; v < n; ++v) instance.fairing_fixed[v] = skeletal[v] == d.skeletal_positions[v] ? 1 : 0;
     params.fixed = instance.fairing_fixed.data();
   }
-  const uint32_t budget = params.iterations == 0 ? kDefaultFairingIterations : params.iterations;
-  const uint32_t limit = warm ? budget : std::max(budget, kConvergenceIterations);
-  const float fold_step = params.fold_step > 0.0f ? params.fold_step
-                          : params.semi_implicit  ? kDefaultFoldStepSemiImplicit
-                                                  : kDefaultFoldStepExplicit;
-  const float intersection_step = params.intersection_step > 0.0f ? params.intersection_step : kDefaultIntersectionStep;
-  float gain = instance.fairing_gain;
+  if (params.iterations == 0) params.iterations = kDefaultFairingIterations;
+  if (!(params.fold_step > 0.0f))
+    params.fold_step = params.semi_implicit ? kDefaultFoldStepSemiImplicit : kDefaultFoldStepExplicit;
+  if (!(params.intersection_step > 0.0f)) params.intersection_step = kDefaultIntersectionStep;
   // A fresh start forgets the tracking schedule too: its result depends on this input only.
   if (!warm) {
     instance.fairing.search_phase = 0;
     std::fill(instance.fairing.hull_case.begin(), instance.fairing.hull_case.end(), kHullCaseUnknown);
   }
-  uint32_t done = 0;
-  float residual = 0.0f;
-  // Warm: the budget in one fair_run() call (one grid, one field search). Converging: calls of
-  // kConvergenceChunk iterations, stopping at the residual, annealed after kAnnealAfter.
-  // Below a gain of 1e-7 a step cannot move a float coordinate any more: nothing to run.
-  while (done < limit && gain > 1e-7f) {
-    params.iterations = warm ? budget : std::min(kConvergenceChunk, limit - done);
-    params.search_stride = warm ? kSearchStride : 1;  // a fresh start searches everywhere
-    params.fold_step = fold_step * gain;
-    params.intersection_step = intersection_step * gain;
-    residual = fair_run(topo, skeletal, d.medial_radius.data(), x, n, params, instance.fairing, &d.fairing_rest,
-                        frames);
-    done += params.iterations;
-    if (residual < 0.0f || warm) break;  // (< 0: size mismatch, cannot happen for this asset)
-    if (residual < kConvergedResidual) break;
-    if (done >= kAnnealAfter) gain *= kAnnealRate;
-  }
-  instance.fairing_gain = gain;  // a held pose continues from the annealed steps
-  instance.last_fairing_iterations = done;
-  instance.last_fairing_residual = residual;
+  const FairingSchedule run = run_fairing_schedule(topo, skeletal, d.medial_radius.data(), x, n, params, warm,
+                                                   instance.fairing_gain, instance.fairing, &d.fairing_rest, frames);
+  instance.fairing_gain = run.gain;  // a held pose continues from the annealed steps
+  instance.last_fairing_iterations = run.iterations;
+  instance.last_fairing_residual = run.residual;
 
   // The correction, in the local frames, for the next evaluation's warm start.
   for (size_t v = 0; v < n; ++v)
     instance.fairing_offset[v] = glm::transpose(frames[v]) * (x[v] - instance.fairing_start[v]);
   instance.has_fairing_offset = true;
+}
+
+FairingSchedule run_fairing_schedule(const FairingTopology& topology, const glm::vec3* skeletal, const float* radius,
+                                     glm::vec3* positions, size_t vertex_count, FairingParams params, bool warm,
+                                     float gain, FairingWorkspace& workspace, const FairingRest* rest,
+                                     const glm::mat3* frames) {
+  const uint32_t budget = params.iterations;
+  const uint32_t limit = warm ? budget : std::max(budget, kConvergenceIterations);
+  const float fold_step = params.fold_step, intersection_step = params.intersection_step;
+  FairingSchedule run;
+  while (run.iterations < limit && gain > 1e-7f) {
+    params.iterations = warm ? budget : std::min(kConvergenceChunk, limit - run.iterations);
+    params.search_stride = warm ? kSearchStride : 1;  // a fresh start searches everywhere
+    params.fold_step = fold_step * gain;
+    params.intersection_step = intersection_step * gain;
+    run.residual = fair_run(topology, skeletal, radius, positions, vertex_count, params, workspace, rest, frames);
+    run.iterations += params.iterations;
+    if (run.residual < 0.0f || warm) break;  // (< 0: sizes that do not match the topology)
+    if (run.residual < kConvergedResidual) break;
+    if (run.iterations >= kAnnealAfter) gain *= kAnnealRate;
+  }
+  run.gain = gain;
+  return run;
 }
 
 }  // namespace skelform::runtime

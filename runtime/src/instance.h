@@ -105,6 +105,25 @@ struct FairStageOptions {
 };
 void fair_stage(sf_instance& instance, const FairStageOptions& options);
 
+// The iteration schedule fair_stage runs (also for tests that fair a mesh without an instance).
+// Warm: one fair_run() call of params.iterations iterations, flow (5) searching its grid every
+// kSearchStride-th call. Converging (`warm` false: from rest, after a pose jump): calls of
+// kConvergenceChunk iterations with a full search, until the residual is below
+// kConvergedResidual or max(params.iterations, kConvergenceIterations) iterations are done,
+// the steps annealed by kAnnealRate per call once kAnnealAfter are done. params.fold_step and
+// params.intersection_step are the resolved (non-zero) steps before the gain; every call scales
+// them by the current gain, which starts at `gain`; below 1e-7 a step cannot move a float
+// coordinate, and nothing runs.
+struct FairingSchedule {
+  uint32_t iterations = 0;  // run in all
+  float residual = 0.0f;    // fair_run()'s result for the last call
+  float gain = 1.0f;        // the steps' scale after the schedule (annealed when converging)
+};
+FairingSchedule run_fairing_schedule(const FairingTopology& topology, const glm::vec3* skeletal, const float* radius,
+                                     glm::vec3* positions, size_t vertex_count, FairingParams params, bool warm,
+                                     float gain, FairingWorkspace& workspace, const FairingRest* rest,
+                                     const glm::mat3* frames);
+
 // displace.cpp. Refines the control mesh and places every dense vertex from its DSS binding;
 // with `with_normals`, also normals (and tangents where authored).
 struct DenseOutput {

@@ -346,10 +346,9 @@ Measured measure(const BentCapsule& scene, const std::vector<glm::vec3>& positio
           (skelform::bake::enclosed_volume(posed) - rest_volume) / rest_volume};
 }
 
-// The fairing from rest as fair_stage.cpp runs it, relative to the rest pose (fair.h
-// FairingRest): calls of kConvergenceChunk iterations, steps annealed by kAnnealRate per chunk
-// after kAnnealAfter, until the residual is below kConvergedResidual or kConvergenceIterations
-// are done; frames Procrustes-fitted to rest. With `report`, a message per chunk.
+// The fairing from rest as fair_stage.cpp runs it (run_fairing_schedule, converging), every
+// term relative to the rest pose (fair.h FairingRest), frames Procrustes-fitted to rest. With
+// `report`, a message with the result.
 Measured fair_from_rest(const BentCapsule& scene, bool semi_implicit, bool report) {
   const std::vector<glm::vec3> skeletal = scene.skeletal_deformed();
   const std::vector<glm::vec3> unfaired = scene.reconstructed();
@@ -362,33 +361,24 @@ Measured fair_from_rest(const BentCapsule& scene, bool semi_implicit, bool repor
   fairing_frames(fairing.topology, skeletal.data(), unfaired.data(), frames.data(), &rest);
   FairingParams params;
   params.semi_implicit = semi_implicit;
-  params.iterations = skelform::runtime::kConvergenceChunk;
-  params.smoothing_reference = unfaired.data();
-  const float fold = semi_implicit ? skelform::runtime::kDefaultFoldStepSemiImplicit
+  params.iterations = skelform::runtime::kDefaultFairingIterations;
+  params.fold_step = semi_implicit ? skelform::runtime::kDefaultFoldStepSemiImplicit
                                    : skelform::runtime::kDefaultFoldStepExplicit;
-  const std::string name = semi_implicit ? "semi-implicit" : "explicit";
+  params.intersection_step = skelform::runtime::kDefaultIntersectionStep;
+  params.smoothing_reference = unfaired.data();
   std::vector<glm::vec3> x = unfaired;
-  double seconds = 0.0;
-  float gain = 1.0f, residual = 0.0f;
-  uint32_t done = 0;
-  while (done < skelform::runtime::kConvergenceIterations) {
-    params.fold_step = fold * gain;
-    params.intersection_step = skelform::runtime::kDefaultIntersectionStep * gain;
-    const auto start = std::chrono::steady_clock::now();
-    residual = fair_run(fairing.topology, skeletal.data(), scene.radius.data(), x.data(), x.size(), params,
-                        fairing.workspace, &rest, frames.data());
-    seconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-    done += params.iterations;
-    if (report) {
-      const Measured m = measure(scene, x);
-      MESSAGE(name << " after " << done << " iterations: " << m.intersections << " pairs, volume "
-                   << 100 * m.volume_change << " %, residual " << residual);
-    }
-    if (residual < skelform::runtime::kConvergedResidual) break;
-    if (done >= skelform::runtime::kAnnealAfter) gain *= skelform::runtime::kAnnealRate;
-  }
-  if (report) MESSAGE(name << ": " << 1e3 * seconds / done << " ms per iteration");
-  return measure(scene, x);
+  const auto start = std::chrono::steady_clock::now();
+  const skelform::runtime::FairingSchedule run =
+      skelform::runtime::run_fairing_schedule(fairing.topology, skeletal.data(), scene.radius.data(), x.data(), x.size(),
+                                              params, false, 1.0f, fairing.workspace, &rest, frames.data());
+  const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  const Measured faired = measure(scene, x);
+  if (report)
+    MESSAGE(std::string(semi_implicit ? "semi-implicit" : "explicit")
+            << " after " << run.iterations << " iterations: " << faired.intersections << " pairs, volume "
+            << 100 * faired.volume_change << " %, residual " << run.residual << ", "
+            << 1e3 * seconds / run.iterations << " ms per iteration");
+  return faired;
 }
 
 }  // namespace
