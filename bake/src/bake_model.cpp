@@ -128,9 +128,10 @@ BakedDeformable bake_deformable(const InputMesh& group, const BakeOptions& optio
   SubdivisionStencils stencils = build_loop_stencils(control.mesh, level);
   baked.control_positions = to_float(control.mesh.positions);
   const std::vector<glm::vec3> refined = apply_stencils(stencils, baked.control_positions);
+  const std::vector<glm::vec3> normals = refined_normals(stencils, baked.control_positions, control.mesh.triangles);
 
   stage("binding");
-  DssBinding binding = bind_dense_vertices(refined, stencils.refined_triangles, group.positions, diagonal);
+  DssBinding binding = bind_dense_vertices(refined, normals, stencils.refined_triangles, group.positions, diagonal);
 
   stage("skin weights");
   baked.control_normals = to_float(skeleton.normals);

@@ -233,10 +233,14 @@ FloatBinding finish_in_float(const RefinedSurface& surface, const Vec3& p, const
 }  // namespace
 
 DssBinding bind_dense_vertices(const std::vector<glm::vec3>& refined_positions,
+                               const std::vector<glm::vec3>& refined_normals,
                                const std::vector<Triangle>& refined_triangles,
                                const std::vector<Vec3>& dense_positions, double diagonal) {
   if (refined_positions.empty() || refined_triangles.empty())
     throw Error(ErrorKind::invalid_input, "DSS binding needs a non-empty refined mesh");
+  if (refined_normals.size() != refined_positions.size())
+    throw Error(ErrorKind::invalid_input, "DSS binding: " + std::to_string(refined_normals.size()) + " normals for " +
+                                              std::to_string(refined_positions.size()) + " refined vertices");
   for (size_t t = 0; t < refined_triangles.size(); ++t)
     for (uint32_t corner : refined_triangles[t])
       if (corner >= refined_positions.size())
@@ -251,13 +255,8 @@ DssBinding bind_dense_vertices(const std::vector<glm::vec3>& refined_positions,
   RefinedSurface surface;
   surface.float_positions = &refined_positions;
   surface.triangles = &refined_triangles;
-  // The normals the runtime computes at rest, bit for bit (same header, same order).
-  std::vector<uint32_t> flat_indices;
-  flat_indices.reserve(refined_triangles.size() * 3);
-  for (const Triangle& tri : refined_triangles) flat_indices.insert(flat_indices.end(), tri.begin(), tri.end());
-  surface.float_normals.resize(refined_positions.size());
-  dss::refined_vertex_normals(refined_positions.data(), refined_positions.size(), flat_indices.data(),
-                              refined_triangles.size(), surface.float_normals.data());
+  // The normals the runtime computes at rest, bit for bit (refined_normals).
+  surface.float_normals = refined_normals;
   surface.positions.assign(refined_positions.begin(), refined_positions.end());
   surface.normals.assign(surface.float_normals.begin(), surface.float_normals.end());
   build_neighbours(surface);

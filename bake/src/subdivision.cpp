@@ -5,6 +5,8 @@
 // replays the table on the deformed control mesh.
 #include "skelform/bake/subdivision.h"
 
+#include "dss_frame.h"
+
 #include <opensubdiv/far/primvarRefiner.h>
 #include <opensubdiv/far/stencilTable.h>
 #include <opensubdiv/far/stencilTableFactory.h>
@@ -183,6 +185,24 @@ std::vector<glm::vec3> apply_stencils(const SubdivisionStencils& stencils, const
     refined[v] = sum;
   }
   return refined;
+}
+
+std::vector<glm::vec3> refined_normals(const SubdivisionStencils& stencils, const std::vector<glm::vec3>& control,
+                                       const std::vector<Triangle>& control_triangles) {
+  std::vector<uint32_t> indices;
+  indices.reserve(3 * control_triangles.size());
+  for (const Triangle& t : control_triangles)
+    for (uint32_t corner : t) {
+      if (corner >= control.size())
+        throw Error(ErrorKind::invalid_input, "refined_normals: control triangle corner " + std::to_string(corner) +
+                                                  " out of range (" + std::to_string(control.size()) + " vertices)");
+      indices.push_back(corner);
+    }
+  std::vector<glm::vec3> sums(control.size(), glm::vec3(0.0f));
+  dss::add_face_normals(control.data(), indices.data(), control_triangles.size(), sums.data());
+  std::vector<glm::vec3> normals = apply_stencils(stencils, sums);
+  for (glm::vec3& n : normals) n = dss::normalise_or_zero(n);
+  return normals;
 }
 
 }  // namespace skelform::bake

@@ -31,6 +31,7 @@ sf_instance::sf_instance(const sf_asset& owner, const Deformable& d)
       fairing_reference_umbrella(CallbackAllocator<glm::vec3>(owner.allocator)),
       fairing_mean_edge(CallbackAllocator<float>(owner.allocator)),
       fairing_fixed(CallbackAllocator<uint8_t>(owner.allocator)),
+      control_normal_sums(CallbackAllocator<glm::vec3>(owner.allocator)),
       refined_positions(CallbackAllocator<glm::vec3>(owner.allocator)),
       refined_normals(CallbackAllocator<glm::vec3>(owner.allocator)),
       dense_positions(CallbackAllocator<glm::vec3>(owner.allocator)),
@@ -60,6 +61,7 @@ sf_instance::sf_instance(const sf_asset& owner, const Deformable& d)
   fairing_reference_umbrella.assign(control_count, glm::vec3(0.0f));
   fairing_mean_edge.assign(control_count, 0.0f);
   fairing_fixed.assign(control_count, 0);
+  control_normal_sums.resize(control_count);
   refined_positions.resize(d.refined_vertex_count);
   refined_normals.resize(d.refined_vertex_count);
   dense_positions.resize(d.vertex_count);
@@ -207,8 +209,8 @@ sf_result evaluate(sf_instance& instance, const sf_eval_options& options) {
     fairing.from_rest = (options.flags & SF_EVAL_FROM_REST) != 0 || !instance.has_previous;
     fair_stage(instance, fairing);
     // 4. Refine and displace.
-    displace(d, instance.control.data(), instance.refined_positions.data(), instance.refined_normals.data(),
-             with_normals, out);
+    displace(d, instance.control.data(), instance.control_normal_sums.data(), instance.refined_positions.data(),
+             instance.refined_normals.data(), with_normals, out);
     // This evaluation's S' and M are the next incremental evaluation's start. Swapping
     // vectors of one allocator moves pointers only: no allocation.
     instance.previous_skeletal.swap(instance.skeletal);

@@ -25,7 +25,7 @@ struct PrimitiveRecord {
   bool has_tangents = false;
 };
 
-// Stencil rows refine_positions sums side by side (Deformable::stencil_group_rows): enough
+// Stencil rows refine_surface sums side by side (Deformable::stencil_group_rows): enough
 // independent sums to hide the latency of each one's additions.
 constexpr uint32_t kStencilLanes = 4;
 
@@ -90,7 +90,7 @@ struct Deformable {
   Array<uint32_t> stencil_offsets;  // refined_vertex_count + 1
   Array<uint32_t> stencil_indices;
   Array<float> stencil_weights;
-  // The same stencils grouped for refine_positions (asset_load.cpp group_stencils): rows of
+  // The same stencils grouped for refine_surface (asset_load.cpp group_stencils): rows of
   // equal length, kStencilLanes per group, groups in order of length. Group g has
   // stencil_group_lengths[g] steps; step s holds entry s of each of its rows, lane by lane
   // (kStencilLanes indices and weights), so a group sums its rows side by side without a

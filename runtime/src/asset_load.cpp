@@ -580,7 +580,7 @@ void renumber_refined_vertices(Deformable& deformable) {
   for (uint32_t& index : deformable.refined_indices) index = new_of_old[index];
 }
 
-// Regroups the stencil rows for refine_positions (Deformable::stencil_group_rows): a stable
+// Regroups the stencil rows for refine_surface (Deformable::stencil_group_rows): a stable
 // sort of the rows by length, then kStencilLanes rows per group, entries lane-interleaved.
 // Each row keeps its entries in stencil order, so it sums to the same bits as from the CSR;
 // the sums of a group are independent, which hides their addition latency, and the inner
@@ -623,8 +623,9 @@ void derive_rest_data(Deformable& deformable) {
   group_stencils(deformable);
   std::vector<glm::vec3> refined(deformable.refined_vertex_count);
   std::vector<glm::vec3> normals(deformable.refined_vertex_count);
-  refine_positions(deformable, deformable.control_positions.data(), refined.data());
-  refined_normals(deformable, refined.data(), normals.data());
+  std::vector<glm::vec3> control_normal_sums(deformable.control_vertex_count);
+  refine_surface(deformable, deformable.control_positions.data(), control_normal_sums.data(), refined.data(),
+                 normals.data());
 
   deformable.binding_corners.resize(3 * size_t{deformable.vertex_count});
   for (uint32_t v = 0; v < deformable.vertex_count; ++v)
@@ -718,6 +719,12 @@ sf_asset* load_asset(const unsigned char* bytes, size_t size, const std::string&
                         " (up to " + std::to_string(format::kMajorVersion) + "." + std::to_string(format::kMinorVersion) +
                         "): update skelform or bake with the matching skelform-bake");
   if (major < 1) invalid(prefix, "majorVersion " + std::to_string(major) + " does not exist (versions start at 1)");
+  if (major < format::kMajorVersion)
+    throw LoadError(SF_ERROR_VERSION_MISMATCH,
+                    prefix + " is version " + std::to_string(major) + "." + std::to_string(minor) +
+                        ", baked by an older skelform-bake whose binding used another normal field; this runtime "
+                        "reads major version " + std::to_string(format::kMajorVersion) +
+                        " only: bake the asset again with this release's skelform-bake");
 
   const tinygltf::Value* deformables = member(root, format::kDeformables);
   if (!deformables || !deformables->IsArray() || deformables->ArrayLen() == 0)

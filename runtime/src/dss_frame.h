@@ -29,15 +29,14 @@
 
 namespace skelform::dss {
 
-// Area-weighted vertex normals of the refined mesh: each triangle adds its unnormalised
-// normal (p1 - p0) × (p2 - p0) (length = twice its area) to its three corners, in triangle
-// order, then each sum is normalised. Fixed summation order keeps the result deterministic
-// (bake and runtime get the same bits). A vertex with no non-degenerate incident triangle,
-// or whose sums cancel, gets (0, 0, 0); surface_frame falls back for it.
-// `indices` holds 3 * triangle_count vertex indices < vertex_count; `out_normals` holds
-// vertex_count entries and may not alias `positions`.
-// The accumulation half on its own: adds each triangle's (p1 - p0) × (p2 - p0) to `sums` at
-// its three corners, in triangle order (the runtime's block-wise normalisations use it too).
+// Area-weighted vertex normals, in two halves with a fixed order (baker and runtime get the
+// same bits):
+//  - add_face_normals: each triangle adds its unnormalised normal (p1 - p0) × (p2 - p0)
+//    (length = twice its area) to its three corners, in triangle order;
+//  - normalise_or_zero: each sum divided by its length; a vertex with no non-degenerate
+//    incident triangle, or whose sums cancel, gets (0, 0, 0) (surface_frame falls back).
+// `indices` holds 3 * triangle_count vertex indices < vertex_count; `sums` / `out_normals`
+// hold vertex_count entries and may not alias `positions`.
 inline void add_face_normals(const glm::vec3* positions, const uint32_t* indices, size_t triangle_count,
                              glm::vec3* sums) {
   for (size_t t = 0; t < triangle_count; ++t) {
@@ -49,17 +48,31 @@ inline void add_face_normals(const glm::vec3* positions, const uint32_t* indices
   }
 }
 
-inline void refined_vertex_normals(const glm::vec3* positions, size_t vertex_count, const uint32_t* indices,
-                                   size_t triangle_count, glm::vec3* out_normals) {
+inline glm::vec3 normalise_or_zero(const glm::vec3& v) {
+  const float length = std::sqrt(glm::dot(v, v));
+  // A normal computed from float noise can be tiny but non-zero; normalising it is still
+  // exact enough (it is a direction), only a true zero or a denormal is dropped.
+  return length > 1e-30f ? v / length : glm::vec3(0.0f);
+}
+
+// Unit area-weighted vertex normals of a triangle mesh (the control mesh's N(M) of the
+// paper's eq. (3), reconstruct.cpp).
+inline void vertex_normals(const glm::vec3* positions, size_t vertex_count, const uint32_t* indices,
+                           size_t triangle_count, glm::vec3* out_normals) {
   for (size_t v = 0; v < vertex_count; ++v) out_normals[v] = glm::vec3(0.0f);
   add_face_normals(positions, indices, triangle_count, out_normals);
-  for (size_t v = 0; v < vertex_count; ++v) {
-    const float length = std::sqrt(glm::dot(out_normals[v], out_normals[v]));
-    // A normal computed from float noise can be tiny but non-zero; normalising it is still
-    // exact enough (it is a direction), only a true zero or a denormal is dropped.
-    out_normals[v] = length > 1e-30f ? out_normals[v] / length : glm::vec3(0.0f);
-  }
+  for (size_t v = 0; v < vertex_count; ++v) out_normals[v] = normalise_or_zero(out_normals[v]);
 }
+
+// The refined mesh's vertex normals n0, n1, n2 above (extension version 2, docs/
+// SKELFORM_skeletal_deformation.md "Stencil evaluation"): the control mesh's area-weighted
+// normal sums (add_face_normals over the control triangles) refined by the same stencils as
+// the positions, each refined sum then normalised (normalise_or_zero). The stencil sums are
+// the positions' arithmetic (float, from zero, in stencil order), which the baker
+// (bake/src/subdivision.cpp refined_normals) and the runtime (runtime/src/refine.cpp) each
+// implement; at level 0 (identity stencils) this is vertex_normals of the control mesh.
+// (Extension version 1 took the area-weighted normals of the refined triangles instead: the
+// same field to within the refined mesh's faceting, at four times the runtime cost.)
 
 // Orthonormal frame at a bound point: `point` = q(b), `normal` = n(b), `tangent` along
 // ∂q/∂b1 made orthogonal to the normal, `bitangent` = normal × tangent.

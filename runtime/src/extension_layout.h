@@ -14,7 +14,10 @@
 namespace skelform::format {
 
 inline constexpr char kExtensionName[] = "SKELFORM_skeletal_deformation";
-inline constexpr int kMajorVersion = 1;
+// Version 2: the refined mesh's vertex normals are the control mesh's normal sums refined by the
+// stencils (dss_frame.h), where version 1 took the refined triangles' normals. The bindings of
+// a version 1 asset belong to the other normal field, so a version 2 reader refuses it.
+inline constexpr int kMajorVersion = 2;
 inline constexpr int kMinorVersion = 0;
 
 // glTF accessor component types used by the extension.

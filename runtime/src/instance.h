@@ -124,15 +124,16 @@ FairingSchedule run_fairing_schedule(const FairingTopology& topology, const glm:
                                      float gain, FairingWorkspace& workspace, const FairingRest* rest,
                                      const glm::mat3* frames);
 
-// displace.cpp. Refines the control mesh and places every dense vertex from its DSS binding;
-// with `with_normals`, also normals (and tangents where authored).
+// displace.cpp. Refines the control mesh (refine.h refine_surface, `control_normal_sums` its
+// control-sized scratch) and places every dense vertex from its DSS binding; with
+// `with_normals`, also normals (and tangents where authored).
 struct DenseOutput {
   glm::vec3* positions;
   glm::vec3* normals;
   glm::vec4* tangents;  // may be null when no primitive has tangents
 };
-void displace(const Deformable& d, const glm::vec3* control, glm::vec3* refined_positions, glm::vec3* refined_normals,
-              bool with_normals, const DenseOutput& out);
+void displace(const Deformable& d, const glm::vec3* control, glm::vec3* control_normal_sums,
+              glm::vec3* refined_positions, glm::vec3* refined_normals, bool with_normals, const DenseOutput& out);
 
 // dense_skinning.cpp. The baselines on the original vertices (dense_joints/dense_weights).
 void dense_skinning(const Deformable& d, const JointTransforms& joints, Blend blend, bool with_normals,
@@ -184,7 +185,9 @@ struct sf_instance {
   uint32_t last_fairing_iterations = 0;
   float last_fairing_residual = 0.0f;
 
-  // Refined surface and the dense result sf_instance_write copies out.
+  // Refined surface (and the control mesh's normal sums it is refined from) and the dense
+  // result sf_instance_write copies out.
+  skelform::runtime::Array<glm::vec3> control_normal_sums;
   skelform::runtime::Array<glm::vec3> refined_positions;
   skelform::runtime::Array<glm::vec3> refined_normals;
   skelform::runtime::Array<glm::vec3> dense_positions;

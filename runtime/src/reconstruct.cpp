@@ -24,7 +24,7 @@ inline glm::vec3 rest_residual(const Deformable& d, uint32_t v) {
 }
 
 // The paper's N(M) (section 2: "the normalized area-weighting mean of the normals of the mesh
-// triangles incident to the vertex"; computed as dss_frame.h's refined normals), shifted by
+// triangles incident to the vertex"; dss_frame.h's vertex_normals), shifted by
 // the per-vertex `rest_offset` = N_rest − N_area(M_rest) so that N(M_rest) = N_rest exactly.
 // Without it, eq. (3) iterated at rest is M ← S + d·N_area(M): the runtime's float normals
 // differ from the bake's by up to a few tenths of a degree (CesiumMan), and the homotopy,
@@ -34,8 +34,8 @@ inline glm::vec3 rest_residual(const Deformable& d, uint32_t v) {
 // keeps `fallback`'s, so N stays unit and finite.
 void paper_normals(const Deformable& d, const glm::vec3* positions, const glm::vec3* rest_offset,
                    const glm::vec3* fallback, glm::vec3* out) {
-  dss::refined_vertex_normals(positions, d.control_vertex_count, d.control_indices.data(),
-                              d.control_indices.size() / 3, out);
+  dss::vertex_normals(positions, d.control_vertex_count, d.control_indices.data(), d.control_indices.size() / 3,
+                      out);
   for (uint32_t v = 0; v < d.control_vertex_count; ++v) {
     const bool vanished = out[v].x == 0.0f && out[v].y == 0.0f && out[v].z == 0.0f;
     out[v] = vanished ? fallback[v] : normalize_or(out[v] + rest_offset[v], fallback[v]);
@@ -70,8 +70,8 @@ void reconstruct_predicted(const Deformable& d, const glm::vec3* rest_offset, co
 }
 
 void rest_normal_offsets(const Deformable& d, glm::vec3* offsets) {
-  dss::refined_vertex_normals(d.control_positions.data(), d.control_vertex_count, d.control_indices.data(),
-                              d.control_indices.size() / 3, offsets);
+  dss::vertex_normals(d.control_positions.data(), d.control_vertex_count, d.control_indices.data(),
+                      d.control_indices.size() / 3, offsets);
   for (uint32_t v = 0; v < d.control_vertex_count; ++v) offsets[v] = d.control_normals[v] - offsets[v];
 }
 

@@ -1,5 +1,5 @@
-// Runtime step 4 (DESIGN.md), first half: Loop refinement of the (deformed) control mesh with
-// the baked stencils, the refined mesh's vertex normals, and the DSS frame of each dense
+// Runtime step 4 (DESIGN.md), first half: Loop refinement of the (deformed) control mesh and
+// of its normals with the baked stencils, and the DSS frame of each dense
 // vertex's bound point. asset_load.cpp runs these once on the rest control mesh (to derive
 // Deformable::rest_frames); the evaluation runs them every frame on the faired control mesh.
 //
@@ -20,19 +20,20 @@
 
 namespace skelform::runtime {
 
-// Refined vertex v = sum of stencil_weights[s] * control[stencil_indices[s]] over
-// s in [stencil_offsets[v], stencil_offsets[v+1]), each sum started from zero and taken in
-// stencil order (spec "Stencil evaluation"), read from the grouped copy of the stencils
-// (Deformable::stencil_group_rows: same entries, same order per row, kStencilLanes rows
-// summed side by side). `control` holds control_vertex_count positions, `refined`
-// refined_vertex_count; they may not alias.
-void refine_positions(const Deformable& deformable, const glm::vec3* control, glm::vec3* refined);
-
-// Area-weighted unit vertex normals of the refined mesh (dss::refined_vertex_normals over
-// refined_indices, to the bit; refine_normals.cpp vectorises its normalisation): the smooth
-// normal field DSS displaces along. `normals` holds
-// refined_vertex_count entries and may not alias `refined`.
-void refined_normals(const Deformable& deformable, const glm::vec3* refined, glm::vec3* normals);
+// The refined surface of `control` (control_vertex_count positions): its positions and its
+// unit vertex normals (dss_frame.h, extension version 2), in one pass over the stencils.
+//  - Refined vertex v = sum of stencil_weights[s] * control[stencil_indices[s]] over
+//    s in [stencil_offsets[v], stencil_offsets[v+1]), each sum started from zero and taken in
+//    stencil order (spec "Stencil evaluation"), read from the grouped copy of the stencils
+//    (Deformable::stencil_group_rows: same entries, same order per row, kStencilLanes rows
+//    summed side by side).
+//  - Its normal: the same sum over the control mesh's area-weighted normal sums (computed
+//    into `control_normal_sums`, control_vertex_count entries of scratch), normalised
+//    (normalise_vectors: zero where the sum vanishes).
+// The baker's bits (bake/src/subdivision.cpp apply_stencils, refined_normals). `refined` and
+// `refined_normals` hold refined_vertex_count entries; no two buffers may alias.
+void refine_surface(const Deformable& deformable, const glm::vec3* control, glm::vec3* control_normal_sums,
+                    glm::vec3* refined, glm::vec3* refined_normals);
 
 // dss::add_face_normals, to the bit (SSE2 where the compiler targets it, refine_normals.cpp):
 // adds each triangle's (p1 - p0) × (p2 - p0) to `sums` at its three corners, in triangle order.
@@ -42,7 +43,7 @@ void add_face_normals(const glm::vec3* positions, size_t vertex_count, const uin
 
 // Divides each of the `count` vectors by its length, in place, block-wise and branch-free so
 // the square roots and divisions vectorise (correctly rounded per lane: the bits of the scalar
-// v / length). A vector of length ≤ 1e-30 becomes +0 (dss::refined_vertex_normals' rule).
+// v / length). A vector of length ≤ 1e-30 becomes +0 (dss::normalise_or_zero's rule).
 // With `usable` (count entries): 1 where the length was > 1e-30 and finite, else 0, for a
 // caller with a fallback of its own.
 void normalise_vectors(glm::vec3* vectors, size_t count, uint8_t* usable = nullptr);

@@ -1,9 +1,10 @@
-// The refined mesh's vertex normals (refine.h), every frame: dss::refined_vertex_normals's
-// arithmetic (the baker's), rearranged for speed only. Each triangle still adds
-// (p1 - p0) × (p2 - p0) to its corners in triangle order, then each sum is divided by its
-// length (zero at length ≤ 1e-30). The normalisation (normalise_vectors, which displace.cpp's
-// dense face normals share) runs in blocks of structure-of-arrays scratch so the compiler
-// vectorises its square roots and divisions (correctly rounded in
+// Area-weighted vertex normals (refine.h), every frame: dss_frame.h's arithmetic (the
+// baker's), rearranged for speed only. Each triangle still adds (p1 - p0) × (p2 - p0) to its
+// corners in triangle order (add_face_normals: the control mesh's normal sums that
+// refine_surface refines, and the dense face normals of displace.cpp), then each sum is
+// divided by its length (zero at length ≤ 1e-30). The normalisation (normalise_vectors) runs
+// in blocks of structure-of-arrays scratch so the compiler vectorises its square roots and
+// divisions (correctly rounded in
 // every lane: the same bits as the scalar loop; tests/runtime/asset_test.cpp checks). Compiled
 // with -fno-math-errno where the compiler understands it (runtime/CMakeLists.txt), like
 // displace.cpp, without which GCC keeps sqrt scalar.
@@ -82,14 +83,6 @@ void add_face_normals(const glm::vec3* positions, size_t vertex_count, const uin
   static_cast<void>(vertex_count);
   dss::add_face_normals(positions, indices, triangle_count, sums);
 #endif
-}
-
-void refined_normals(const Deformable& deformable, const glm::vec3* refined, glm::vec3* normals) {
-  const size_t vertex_count = deformable.refined_vertex_count;
-  for (size_t v = 0; v < vertex_count; ++v) normals[v] = glm::vec3(0.0f);
-  add_face_normals(refined, vertex_count, deformable.refined_indices.data(), deformable.refined_indices.size() / 3,
-                   normals);
-  normalise_vectors(normals, vertex_count);
 }
 
 }  // namespace skelform::runtime

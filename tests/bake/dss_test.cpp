@@ -41,24 +41,26 @@ std::vector<Vec3> bumpy_positions(const TriangleMesh& mesh) {
 struct Refined {
   SubdivisionStencils stencils;
   std::vector<glm::vec3> positions;
+  std::vector<glm::vec3> normals;  // refined_normals: what the binding displaces along
 };
 
 Refined refine(const TriangleMesh& control, int level) {
   Refined refined;
   refined.stencils = build_loop_stencils(control, level);
-  refined.positions = apply_stencils(refined.stencils,
-                                     std::vector<glm::vec3>(control.positions.begin(), control.positions.end()));
+  const std::vector<glm::vec3> positions(control.positions.begin(), control.positions.end());
+  refined.positions = apply_stencils(refined.stencils, positions);
+  refined.normals = refined_normals(refined.stencils, positions, control.triangles);
   return refined;
 }
 
+DssBinding bind(const Refined& refined, const std::vector<Vec3>& dense, double diagonal) {
+  return bind_dense_vertices(refined.positions, refined.normals, refined.stencils.refined_triangles, dense, diagonal);
+}
+
 // Evaluates a binding as the runtime will, independently of the binder's own report:
-// normals from the refined positions, frame, displaced point, all in float.
+// frame, displaced point, all in float.
 double rest_error(const Refined& refined, const DssBinding& binding, const std::vector<Vec3>& dense, double diagonal) {
-  std::vector<uint32_t> indices;
-  for (const Triangle& t : refined.stencils.refined_triangles) indices.insert(indices.end(), t.begin(), t.end());
-  std::vector<glm::vec3> normals(refined.positions.size());
-  dss::refined_vertex_normals(refined.positions.data(), refined.positions.size(), indices.data(),
-                              refined.stencils.refined_triangles.size(), normals.data());
+  const std::vector<glm::vec3>& normals = refined.normals;
   double worst = 0.0;
   for (size_t v = 0; v < dense.size(); ++v) {
     const Triangle& t = refined.stencils.refined_triangles.at(binding.triangle[v]);
@@ -149,12 +151,12 @@ TEST_CASE("dss_frame: degenerate triangles and zero or cancelling normals give a
   }
 }
 
-TEST_CASE("dss_frame: refined_vertex_normals are area-weighted unit normals, zero for isolated vertices") {
+TEST_CASE("dss_frame: vertex_normals are area-weighted unit normals, zero for isolated vertices") {
   // A unit square in z = 0 (two triangles) and an unused vertex.
   const glm::vec3 positions[] = {{0, 0, 0}, {1, 0, 0}, {1, 1, 0}, {0, 1, 0}, {5, 5, 5}};
   const uint32_t indices[] = {0, 1, 2, 0, 2, 3};
   glm::vec3 normals[5];
-  dss::refined_vertex_normals(positions, 5, indices, 2, normals);
+  dss::vertex_normals(positions, 5, indices, 2, normals);
   for (int v = 0; v < 4; ++v) CHECK(glm::length(normals[v] - glm::vec3(0, 0, 1)) < 1e-6f);
   CHECK(normals[4] == glm::vec3(0.0f));
   // A big (area 1.5) and a small (area 0.5) triangle folded at 90° around the edge 0-1: the
@@ -162,7 +164,7 @@ TEST_CASE("dss_frame: refined_vertex_normals are area-weighted unit normals, zer
   const glm::vec3 folded[] = {{0, 0, 0}, {1, 0, 0}, {0, 3, 0}, {0, 0, 1}};
   const uint32_t folded_indices[] = {0, 1, 2, 0, 3, 1};
   glm::vec3 folded_normals[4];
-  dss::refined_vertex_normals(folded, 4, folded_indices, 2, folded_normals);
+  dss::vertex_normals(folded, 4, folded_indices, 2, folded_normals);
   CHECK(glm::length(folded_normals[0] - glm::normalize(glm::vec3(0, 1, 3))) < 1e-6f);
 }
 
@@ -177,7 +179,7 @@ TEST_CASE("DSS binding of a bumpy sphere reproduces every dense vertex at rest w
   const Refined refined = refine(control, level);
   const double diagonal = bounds_of(dense.positions).diagonal();
   const DssBinding binding =
-      bind_dense_vertices(refined.positions, refined.stencils.refined_triangles, dense.positions, diagonal);
+      bind(refined, dense.positions, diagonal);
   check_well_formed(binding, dense.positions.size(), refined.stencils.refined_triangles.size());
   const double error = rest_error(refined, binding, dense.positions, diagonal);
   CHECK(error <= 1e-5);
@@ -209,7 +211,7 @@ TEST_CASE("DSS binding: split copies of a vertex bind identically, and the other
   const Refined refined = refine(control, 2);
   const double diagonal = bounds_of(dense.positions).diagonal();
   const DssBinding plain =
-      bind_dense_vertices(refined.positions, refined.stencils.refined_triangles, dense.positions, diagonal);
+      bind(refined, dense.positions, diagonal);
   // Copies interleaved and appended, as a glTF exporter splits vertices at seams.
   std::vector<Vec3> split = dense.positions;
   std::vector<uint32_t> source(dense.positions.size());
@@ -220,7 +222,7 @@ TEST_CASE("DSS binding: split copies of a vertex bind identically, and the other
     split.insert(split.begin() + v / 2, dense.positions[v]);
     source.insert(source.begin() + v / 2, v);
   }
-  const DssBinding copies = bind_dense_vertices(refined.positions, refined.stencils.refined_triangles, split, diagonal);
+  const DssBinding copies = bind(refined, split, diagonal);
   check_well_formed(copies, split.size(), refined.stencils.refined_triangles.size());
   bool identical = true;
   for (size_t v = 0; v < split.size(); ++v) {
@@ -248,7 +250,7 @@ TEST_CASE("DSS binding: separate components the control mesh lacks still bind an
   const Refined refined = refine(control, 2);
   const double diagonal = bounds_of(dense.positions).diagonal();
   const DssBinding binding =
-      bind_dense_vertices(refined.positions, refined.stencils.refined_triangles, dense.positions, diagonal);
+      bind(refined, dense.positions, diagonal);
   check_well_formed(binding, dense.positions.size(), refined.stencils.refined_triangles.size());
   const double error = rest_error(refined, binding, dense.positions, diagonal);
   CHECK(error <= 1e-5);
@@ -280,7 +282,7 @@ TEST_CASE("DSS binding of an open surface: vertices beyond the border clamp to i
   const Refined refined = refine(open, 1);
   const double diagonal = bounds_of(dense.positions).diagonal();
   const DssBinding binding =
-      bind_dense_vertices(refined.positions, refined.stencils.refined_triangles, dense.positions, diagonal);
+      bind(refined, dense.positions, diagonal);
   check_well_formed(binding, dense.positions.size(), refined.stencils.refined_triangles.size());
   const double error = rest_error(refined, binding, dense.positions, diagonal);
   CHECK(error <= 1e-5);
@@ -292,11 +294,13 @@ TEST_CASE("DSS binding of an open surface: vertices beyond the border clamp to i
 TEST_CASE("DSS binding refuses invalid input with Error") {
   const std::vector<glm::vec3> positions = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}};
   const std::vector<Triangle> triangles = {{0, 1, 2}};
-  CHECK_THROWS_AS(bind_dense_vertices({}, {}, {Vec3(0)}, 1.0), Error);
-  CHECK_THROWS_AS(bind_dense_vertices(positions, {{0, 1, 3}}, {Vec3(0)}, 1.0), Error);
-  CHECK_THROWS_AS(bind_dense_vertices(positions, triangles, {Vec3(std::nan(""), 0, 0)}, 1.0), Error);
+  const std::vector<glm::vec3> normals(3, glm::vec3(0, 0, 1));
+  CHECK_THROWS_AS(bind_dense_vertices({}, {}, {}, {Vec3(0)}, 1.0), Error);
+  CHECK_THROWS_AS(bind_dense_vertices(positions, normals, {{0, 1, 3}}, {Vec3(0)}, 1.0), Error);
+  CHECK_THROWS_AS(bind_dense_vertices(positions, normals, triangles, {Vec3(std::nan(""), 0, 0)}, 1.0), Error);
+  CHECK_THROWS_AS(bind_dense_vertices(positions, {glm::vec3(0, 0, 1)}, triangles, {Vec3(0)}, 1.0), Error);
   // No dense vertex: an empty, valid binding.
-  const DssBinding empty = bind_dense_vertices(positions, triangles, {}, 1.0);
+  const DssBinding empty = bind_dense_vertices(positions, normals, triangles, {}, 1.0);
   CHECK(empty.triangle.empty());
   CHECK(empty.max_rest_error == 0.0);
 }
@@ -311,7 +315,7 @@ TEST_CASE("DSS binding at level 4 reproduces a dense bumpy sphere at rest") {
   const Refined refined = refine(control, 4);
   const double diagonal = bounds_of(dense.positions).diagonal();
   const DssBinding binding =
-      bind_dense_vertices(refined.positions, refined.stencils.refined_triangles, dense.positions, diagonal);
+      bind(refined, dense.positions, diagonal);
   MESSAGE("rest error " << binding.max_rest_error << ", residual vertices " << binding.residual_vertices);
   CHECK(binding.max_rest_error <= 1e-5);
 }
@@ -331,7 +335,7 @@ TEST_CASE("DSS binding of CesiumMan's original vertices to its decimated, subdiv
   const Refined refined = refine(control.mesh, level);
   const double diagonal = bounds_of(input.positions).diagonal();
   const DssBinding binding =
-      bind_dense_vertices(refined.positions, refined.stencils.refined_triangles, input.positions, diagonal);
+      bind(refined, input.positions, diagonal);
   check_well_formed(binding, input.positions.size(), refined.stencils.refined_triangles.size());
   const double error = rest_error(refined, binding, input.positions, diagonal);
   CHECK(input.positions.size() == 3273);

@@ -11,6 +11,7 @@
 #include "skelform/bake/glb.h"
 #include "skelform/bake/input.h"
 #include "skelform/skelform.h"
+#include "capsule_glb.h"
 #include "test_support.h"
 
 #include <doctest/doctest.h>
@@ -320,6 +321,78 @@ TEST_CASE("a .gltf with a data URI loads from memory; with an external .bin only
   CHECK(contains(message, "RiggedSimple.skf.bin"));
 }
 
+// The runtime's refined rest surface (refine_surface), checked against the baker's arithmetic
+// written out here: the area-weighted normal sums of the control mesh (dss_frame.h), then
+// each stored stencil row, scalar, positions and sums alike, the sums normalised.
+void refine_like_the_baker(const skelform::runtime::Deformable& d, std::vector<glm::vec3>& refined,
+                           std::vector<glm::vec3>& normals) {
+  refined.assign(d.refined_vertex_count, glm::vec3(0.0f));
+  normals.assign(d.refined_vertex_count, glm::vec3(0.0f));
+  std::vector<glm::vec3> sums(d.control_vertex_count);
+  skelform::runtime::refine_surface(d, d.control_positions.data(), sums.data(), refined.data(), normals.data());
+  // The runtime's pass (grouped stencils, SSE2, one walk for both) rearranges the baker's
+  // arithmetic (dss_frame.h, the stored stencils row by row) for speed: same bits.
+  std::vector<glm::vec3> baker_sums(d.control_vertex_count, glm::vec3(0.0f));
+  skelform::dss::add_face_normals(d.control_positions.data(), d.control_indices.data(),
+                                  d.control_indices.size() / 3, baker_sums.data());
+  // Row by row, scalar, from the grouped copy (the loader keeps only that one): each row's
+  // entries in stencil order.
+  std::vector<glm::vec3> baker_positions(d.refined_vertex_count), baker_normals(d.refined_vertex_count);
+  const uint32_t lanes = skelform::runtime::kStencilLanes;
+  size_t entry = 0;
+  for (size_t g = 0; g < d.stencil_group_lengths.size(); ++g) {
+    for (uint32_t lane = 0; lane < lanes; ++lane) {
+      glm::vec3 point(0.0f), normal(0.0f);
+      for (uint32_t s = 0; s < d.stencil_group_lengths[g]; ++s) {
+        const size_t k = entry + size_t{s} * lanes + lane;
+        point += d.stencil_group_weights[k] * d.control_positions[d.stencil_group_indices[k]];
+        normal += d.stencil_group_weights[k] * baker_sums[d.stencil_group_indices[k]];
+      }
+      baker_positions[d.stencil_group_rows[g * lanes + lane]] = point;
+      baker_normals[d.stencil_group_rows[g * lanes + lane]] = skelform::dss::normalise_or_zero(normal);
+    }
+    entry += size_t{d.stencil_group_lengths[g]} * lanes;
+  }
+  CHECK(std::memcmp(refined.data(), baker_positions.data(), refined.size() * sizeof(glm::vec3)) == 0);
+  CHECK(std::memcmp(normals.data(), baker_normals.data(), normals.size() * sizeof(glm::vec3)) == 0);
+}
+
+TEST_CASE("a level-2 bake: the runtime refines the rest control mesh and its normals to the baker's bits") {
+  // The sample models and the test capsule bake at level 0, where the stencils are the
+  // identity; a capsule decimated to ~150 triangles is refined twice.
+  const std::string bytes = skelform::test::capsule_glb();
+  skelform::bake::BakeOptions options;
+  options.target_triangles = 150;
+  options.subdivision_level = 2;
+  const skelform::bake::BakeResult baked = skelform::bake::bake_model(
+      skelform::bake::load_mesh_from_memory(std::vector<unsigned char>(bytes.begin(), bytes.end()), ".glb", "capsule.glb"),
+      options);
+  Load load;
+  load_memory(skelform::bake::baked_glb(bytes, skelform::test::scratch_dir("asset/level2").string(), baked.deformables),
+              load);
+  REQUIRE_MESSAGE(load.result == SF_OK, load.message);
+  const skelform::runtime::Deformable& d = load.asset->deformables[0];
+  REQUIRE(d.refined_vertex_count > 8 * d.control_vertex_count);  // level 2: about 16 times
+  std::vector<glm::vec3> refined, normals;
+  refine_like_the_baker(d, refined, normals);
+  float worst_length = 0.0f;  // the refined normals are unit
+  for (const glm::vec3& n : normals) worst_length = std::max(worst_length, std::fabs(glm::length(n) - 1.0f));
+  CHECK(worst_length < 1e-6f);
+  // The rest pose through those normals is the original mesh.
+  glm::vec3 low(std::numeric_limits<float>::max()), high(-std::numeric_limits<float>::max());
+  for (const glm::vec3& p : d.rest_positions) low = glm::min(low, p), high = glm::max(high, p);
+  float worst = 0.0f;
+  for (uint32_t v = 0; v < d.vertex_count; ++v) {
+    const skelform::dss::SurfaceFrame frame = skelform::runtime::bound_frame(d, refined.data(), normals.data(), v);
+    const glm::vec3 p = skelform::dss::displaced_point(frame, d.binding_displacement[v], d.binding_residual[v]);
+    worst = std::max(worst, glm::length(p - d.rest_positions[v]));
+  }
+  MESSAGE("level-2 capsule: " << d.control_vertex_count << " control, " << d.refined_vertex_count
+                              << " refined vertices; rest error " << worst / glm::length(high - low)
+                              << " of the diagonal");
+  CHECK(worst <= 1e-5f * glm::length(high - low));
+}
+
 TEST_CASE("the rest evaluation reproduces the original vertices; Fox (no NORMAL) gets unit rest normals") {
   for (const char* sample : {"RiggedSimple/RiggedSimple.glb", "Fox/Fox.glb"}) {
     SKELFORM_REQUIRE_DATA(path, sample);
@@ -327,14 +400,8 @@ TEST_CASE("the rest evaluation reproduces the original vertices; Fox (no NORMAL)
     load_memory(baked_sample(path).glb, load);
     REQUIRE_MESSAGE(load.result == SF_OK, load.message);
     for (const skelform::runtime::Deformable& d : load.asset->deformables) {
-      std::vector<glm::vec3> refined(d.refined_vertex_count), normals(d.refined_vertex_count);
-      skelform::runtime::refine_positions(d, d.control_positions.data(), refined.data());
-      skelform::runtime::refined_normals(d, refined.data(), normals.data());
-      // The runtime's normal pass rearranges the baker's (dss_frame.h) for speed: same bits.
-      std::vector<glm::vec3> baker_normals(d.refined_vertex_count);
-      skelform::dss::refined_vertex_normals(refined.data(), refined.size(), d.refined_indices.data(),
-                                            d.refined_indices.size() / 3, baker_normals.data());
-      CHECK(std::memcmp(normals.data(), baker_normals.data(), normals.size() * sizeof(glm::vec3)) == 0);
+      std::vector<glm::vec3> refined, normals;
+      refine_like_the_baker(d, refined, normals);
       glm::vec3 low(std::numeric_limits<float>::max()), high(-std::numeric_limits<float>::max());
       for (const glm::vec3& p : d.rest_positions) {
         low = glm::min(low, p);
@@ -393,9 +460,14 @@ TEST_CASE("corrupt assets: each corruption gives its sf_result and a message, ne
   }
   SUBCASE("newer major version") {
     Glb glb = original;
-    glb.extension()["majorVersion"] = 2;
-    glb.extension()["minorVersion"] = 3;
-    check_corrupt(glb, SF_ERROR_VERSION_MISMATCH, "version 2.3; this runtime reads major version 1");
+    glb.extension()["majorVersion"] = 3;
+    glb.extension()["minorVersion"] = 1;
+    check_corrupt(glb, SF_ERROR_VERSION_MISMATCH, "version 3.1; this runtime reads major version 2");
+  }
+  SUBCASE("older major version: bound to another normal field, so refused with what to do") {
+    Glb glb = original;
+    glb.extension()["majorVersion"] = 1;
+    check_corrupt(glb, SF_ERROR_VERSION_MISMATCH, "bake the asset again with this release's skelform-bake");
   }
   SUBCASE("a newer minor version is accepted") {
     Glb glb = original;

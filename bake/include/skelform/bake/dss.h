@@ -29,7 +29,8 @@ struct DssBinding {
 };
 
 // Binds every dense vertex to the refined mesh (positions in float as apply_stencils
-// produced them, triangles of SubdivisionStencils::refined_triangles). For each vertex p:
+// produced them, vertex normals as refined_normals produced them, triangles of
+// SubdivisionStencils::refined_triangles). For each vertex p:
 // closest point on the refined mesh, then Newton on (b1, b2, h) for p = q(b) + h·n(b),
 // walking across edges when b leaves its triangle; where that does not converge (a vertex
 // beyond the normal field's focal distance, across a border, off a separate component),
@@ -37,9 +38,10 @@ struct DssBinding {
 // are finally corrected in float so the dss_frame.h evaluation reproduces p.
 // Vertices with equal positions (glTF seam copies) get identical bindings.
 // `diagonal`: the dense mesh's bounding-box diagonal (scale of tolerances and errors; > 0).
-// Throws Error(invalid_input) for an empty refined mesh, out-of-range indices or a
-// non-finite dense position.
+// Throws Error(invalid_input) for an empty refined mesh, normals that do not match the
+// positions, out-of-range indices or a non-finite dense position.
 DssBinding bind_dense_vertices(const std::vector<glm::vec3>& refined_positions,
+                               const std::vector<glm::vec3>& refined_normals,
                                const std::vector<Triangle>& refined_triangles,
                                const std::vector<Vec3>& dense_positions, double diagonal);
 
