@@ -28,8 +28,8 @@ namespace skelform::runtime {
 //    (Deformable::stencil_group_rows: same entries, same order per row, kStencilLanes rows
 //    summed side by side).
 //  - Its normal: the same sum over the control mesh's area-weighted normal sums (computed
-//    into `control_normal_sums`, control_vertex_count entries of scratch), normalised
-//    (normalise_vectors: zero where the sum vanishes).
+//    into `control_normal_sums`, control_vertex_count entries of scratch), normalised as the
+//    rows are stored (dss::normalise_or_zero's bits: zero where the sum vanishes).
 // The baker's bits (bake/src/subdivision.cpp apply_stencils, refined_normals). `refined` and
 // `refined_normals` hold refined_vertex_count entries; no two buffers may alias.
 void refine_surface(const Deformable& deformable, const glm::vec3* control, glm::vec3* control_normal_sums,
