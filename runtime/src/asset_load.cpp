@@ -24,6 +24,9 @@
 #include <string>
 #include <vector>
 
+static_assert(skelform::format::kMajorVersion == SF_EXTENSION_MAJOR_VERSION,
+              "skelform.h's SF_EXTENSION_MAJOR_VERSION is the extension version the loader reads");
+
 namespace skelform::runtime {
 namespace {
 

@@ -65,21 +65,23 @@ extern "C" {
 /* Version of this header. sf_version() returns the version of the linked library; a
  * program may compare the two to detect a header/library mismatch. */
 #define SF_VERSION_MAJOR 0
-#define SF_VERSION_MINOR 1
+#define SF_VERSION_MINOR 2
 #define SF_VERSION_PATCH 0
 /* One integer, comparable: major * 10000 + minor * 100 + patch. */
 #define SF_VERSION (SF_VERSION_MAJOR * 10000 + SF_VERSION_MINOR * 100 + SF_VERSION_PATCH)
 
-/* The newest major version of the SKELFORM_skeletal_deformation extension this runtime
- * reads; assets of a newer major version are refused with SF_ERROR_VERSION_MISMATCH. */
-#define SF_EXTENSION_MAJOR_VERSION 1
+/* The major version of the SKELFORM_skeletal_deformation extension this runtime reads.
+ * Assets of another major version are refused with SF_ERROR_VERSION_MISMATCH: a newer one
+ * needs a newer runtime; an older one (1.x, baked before skelform 0.2, whose binding used
+ * another normal field) needs baking again with this release's skelform-bake. */
+#define SF_EXTENSION_MAJOR_VERSION 2
 
 /* Result of every call. Values are stable across versions; new codes are only appended. */
 typedef enum sf_result {
   SF_OK = 0,
   SF_ERROR_INVALID_ARGUMENT = 1, /* a null pointer, an index, count or stride out of range */
   SF_ERROR_INVALID_DATA = 2,     /* the asset is corrupt or inconsistent */
-  SF_ERROR_VERSION_MISMATCH = 3, /* the asset needs a newer runtime (newer major version) */
+  SF_ERROR_VERSION_MISMATCH = 3, /* the asset's extension major version is not this runtime's */
   SF_ERROR_OUT_OF_MEMORY = 4,    /* an allocation failed */
   SF_ERROR_IO = 5,               /* a file could not be read */
   SF_ERROR_UNSUPPORTED = 6,      /* valid data or a request this runtime does not handle */
