@@ -49,24 +49,6 @@ constexpr float kRestShapeRadius = 3.0f;
 // (intersection_step).
 constexpr float kIntersectionMargin = 0.75f;
 
-#if defined(__SSE2__)
-// Four float lanes (SSE2) for the kernels below that evaluate a scalar formula for four
-// triangles, balls or edges at once: each helper is one IEEE operation per lane (no fused
-// multiply-add), so a lane computes what the scalar code computes, in the same order.
-namespace lane4 {
-inline __m128 load(const float* p) { return _mm_loadu_ps(p); }
-inline __m128 add(__m128 a, __m128 b) { return _mm_add_ps(a, b); }
-inline __m128 sub(__m128 a, __m128 b) { return _mm_sub_ps(a, b); }
-inline __m128 mul(__m128 a, __m128 b) { return _mm_mul_ps(a, b); }
-// glm::dot's order: (x0 x1 + y0 y1) + z0 z1.
-inline __m128 dot(__m128 x0, __m128 y0, __m128 z0, __m128 x1, __m128 y1, __m128 z1) {
-  return add(add(mul(x0, x1), mul(y0, y1)), mul(z0, z1));
-}
-// mask ? a : b, lane by lane (mask lanes all ones or all zeros, as the comparisons give them).
-inline __m128 select(__m128 mask, __m128 a, __m128 b) { return _mm_or_ps(_mm_and_ps(mask, a), _mm_andnot_ps(mask, b)); }
-}  // namespace lane4
-#endif
-
 bool finite(const glm::vec3& v) { return std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z); }
 
 // The rest values the flows are measured from (FairingRest), in this evaluation's frames;

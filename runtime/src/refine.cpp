@@ -22,13 +22,6 @@ namespace skelform::runtime {
 
 namespace {
 constexpr size_t kStencilPrefetch = 512;  // bytes ahead in the index and weight streams
-
-#if defined(__SSE2__)
-// x·x + y·y + z·z lane by lane, in glm::dot's order.
-inline __m128 lane4_dot(__m128 x, __m128 y, __m128 z) {
-  return _mm_add_ps(_mm_add_ps(_mm_mul_ps(x, x), _mm_mul_ps(y, y)), _mm_mul_ps(z, z));
-}
-#endif
 }  // namespace
 
 void refine_surface(const Deformable& deformable, const glm::vec3* control, glm::vec3* control_normal_sums,
@@ -68,7 +61,7 @@ void refine_surface(const Deformable& deformable, const glm::vec3* control, glm:
     // three divisions, zero where the length is ≤ 1e-30 (dss::normalise_or_zero's bits).
     __m128 nx = normal[0], ny = normal[1], nz = normal[2], nw = normal[3];
     _MM_TRANSPOSE4_PS(nx, ny, nz, nw);
-    const __m128 norm = _mm_sqrt_ps(lane4_dot(nx, ny, nz));
+    const __m128 norm = _mm_sqrt_ps(lane4::dot(nx, ny, nz, nx, ny, nz));
     const __m128 keep = _mm_cmpgt_ps(norm, _mm_set1_ps(1e-30f));
     nx = _mm_and_ps(keep, _mm_div_ps(nx, norm));
     ny = _mm_and_ps(keep, _mm_div_ps(ny, norm));

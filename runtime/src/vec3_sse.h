@@ -1,7 +1,7 @@
-// SSE2 loads and stores of glm::vec3 for the runtime's hand-vectorised kernels (refine.cpp,
-// refine_normals.cpp, fair.cpp). SSE2 is part of x86-64 itself, so no ISA flag and no runtime dispatch:
-// the kernels compile these under `#if defined(__SSE2__)` and keep their portable loops as the
-// fallback. One vec3 sits in the low three lanes of an __m128; its lanes compute exactly what
+// SSE2 loads and stores of glm::vec3, and four-lane float helpers, for the runtime's
+// hand-vectorised kernels (refine.cpp, refine_normals.cpp, fair.cpp). SSE2 is part of x86-64
+// itself, so no ISA flag and no runtime dispatch: the kernels compile these under
+// `#if defined(__SSE2__)` and keep their portable loops as the fallback. One vec3 sits in the low three lanes of an __m128; its lanes compute exactly what
 // the scalar code computes per component (the same IEEE operations in the same order, no
 // fused multiply-add), so the results keep the scalar code's bits. What the fourth lane holds
 // is never stored.
@@ -49,5 +49,25 @@ inline void store3(glm::vec3& v, __m128 a) {
 }
 
 }  // namespace skelform::runtime::sse
+
+namespace skelform::runtime {
+
+// Four float lanes for the kernels that evaluate a scalar formula for four triangles, balls,
+// edges or rows at once (fair.cpp, refine.cpp): each helper is one IEEE operation per lane (no
+// fused multiply-add), so a lane computes what the scalar code computes, in the same order.
+namespace lane4 {
+inline __m128 load(const float* p) { return _mm_loadu_ps(p); }
+inline __m128 add(__m128 a, __m128 b) { return _mm_add_ps(a, b); }
+inline __m128 sub(__m128 a, __m128 b) { return _mm_sub_ps(a, b); }
+inline __m128 mul(__m128 a, __m128 b) { return _mm_mul_ps(a, b); }
+// glm::dot's order: (x0 x1 + y0 y1) + z0 z1.
+inline __m128 dot(__m128 x0, __m128 y0, __m128 z0, __m128 x1, __m128 y1, __m128 z1) {
+  return add(add(mul(x0, x1), mul(y0, y1)), mul(z0, z1));
+}
+// mask ? a : b, lane by lane (mask lanes all ones or all zeros, as the comparisons give them).
+inline __m128 select(__m128 mask, __m128 a, __m128 b) { return _mm_or_ps(_mm_and_ps(mask, a), _mm_andnot_ps(mask, b)); }
+}  // namespace lane4
+
+}  // namespace skelform::runtime
 
 #endif
