@@ -39,8 +39,8 @@ constexpr double kInsideSlack = 1e-9;
 struct RefinedSurface {
   std::vector<Vec3> positions;
   std::vector<Vec3> normals;
-  std::vector<glm::vec3> float_normals;
   const std::vector<glm::vec3>* float_positions = nullptr;
+  const std::vector<glm::vec3>* float_normals = nullptr;
   const std::vector<Triangle>* triangles = nullptr;
   // neighbour[3 t + i]: the triangle across the edge opposite corner i of triangle t, when
   // exactly one other triangle shares that edge (a border or non-manifold edge has none:
@@ -210,9 +210,9 @@ FloatBinding finish_in_float(const RefinedSurface& surface, const Vec3& p, const
   b1 = std::clamp(b1, 0.0f, 1.0f);
   b2 = std::clamp(b2, 0.0f, 1.0f - b1);
   const std::vector<glm::vec3>& positions = *surface.float_positions;
-  const dss::SurfaceFrame frame =
-      dss::surface_frame(positions[tri[0]], positions[tri[1]], positions[tri[2]], surface.float_normals[tri[0]],
-                         surface.float_normals[tri[1]], surface.float_normals[tri[2]], b1, b2);
+  const std::vector<glm::vec3>& normals = *surface.float_normals;
+  const dss::SurfaceFrame frame = dss::surface_frame(positions[tri[0]], positions[tri[1]], positions[tri[2]],
+                                                     normals[tri[0]], normals[tri[1]], normals[tri[2]], b1, b2);
   const Vec3 normal(frame.normal), tangent(frame.tangent), bitangent(frame.bitangent);
   const Vec3 offset = p - Vec3(frame.point);
   double h = glm::dot(offset, normal);
@@ -256,9 +256,9 @@ DssBinding bind_dense_vertices(const std::vector<glm::vec3>& refined_positions,
   surface.float_positions = &refined_positions;
   surface.triangles = &refined_triangles;
   // The normals the runtime computes at rest, bit for bit (refined_normals).
-  surface.float_normals = refined_normals;
+  surface.float_normals = &refined_normals;
   surface.positions.assign(refined_positions.begin(), refined_positions.end());
-  surface.normals.assign(surface.float_normals.begin(), surface.float_normals.end());
+  surface.normals.assign(refined_normals.begin(), refined_normals.end());
   build_neighbours(surface);
 
   TriangleMesh tree_mesh;

@@ -178,8 +178,7 @@ TEST_CASE("DSS binding of a bumpy sphere reproduces every dense vertex at rest w
   CHECK(level == 3);
   const Refined refined = refine(control, level);
   const double diagonal = bounds_of(dense.positions).diagonal();
-  const DssBinding binding =
-      bind(refined, dense.positions, diagonal);
+  const DssBinding binding = bind(refined, dense.positions, diagonal);
   check_well_formed(binding, dense.positions.size(), refined.stencils.refined_triangles.size());
   const double error = rest_error(refined, binding, dense.positions, diagonal);
   CHECK(error <= 1e-5);
@@ -210,8 +209,7 @@ TEST_CASE("DSS binding: split copies of a vertex bind identically, and the other
   dense.positions = bumpy_positions(dense);
   const Refined refined = refine(control, 2);
   const double diagonal = bounds_of(dense.positions).diagonal();
-  const DssBinding plain =
-      bind(refined, dense.positions, diagonal);
+  const DssBinding plain = bind(refined, dense.positions, diagonal);
   // Copies interleaved and appended, as a glTF exporter splits vertices at seams.
   std::vector<Vec3> split = dense.positions;
   std::vector<uint32_t> source(dense.positions.size());
@@ -249,8 +247,7 @@ TEST_CASE("DSS binding: separate components the control mesh lacks still bind an
   dense.positions.push_back(Vec3(0.0));
   const Refined refined = refine(control, 2);
   const double diagonal = bounds_of(dense.positions).diagonal();
-  const DssBinding binding =
-      bind(refined, dense.positions, diagonal);
+  const DssBinding binding = bind(refined, dense.positions, diagonal);
   check_well_formed(binding, dense.positions.size(), refined.stencils.refined_triangles.size());
   const double error = rest_error(refined, binding, dense.positions, diagonal);
   CHECK(error <= 1e-5);
@@ -281,8 +278,7 @@ TEST_CASE("DSS binding of an open surface: vertices beyond the border clamp to i
   const TriangleMesh dense = make_capsule(0.5, length, 64, 24, 16);
   const Refined refined = refine(open, 1);
   const double diagonal = bounds_of(dense.positions).diagonal();
-  const DssBinding binding =
-      bind(refined, dense.positions, diagonal);
+  const DssBinding binding = bind(refined, dense.positions, diagonal);
   check_well_formed(binding, dense.positions.size(), refined.stencils.refined_triangles.size());
   const double error = rest_error(refined, binding, dense.positions, diagonal);
   CHECK(error <= 1e-5);
@@ -314,8 +310,7 @@ TEST_CASE("DSS binding at level 4 reproduces a dense bumpy sphere at rest") {
   dense.positions = bumpy_positions(dense);
   const Refined refined = refine(control, 4);
   const double diagonal = bounds_of(dense.positions).diagonal();
-  const DssBinding binding =
-      bind(refined, dense.positions, diagonal);
+  const DssBinding binding = bind(refined, dense.positions, diagonal);
   MESSAGE("rest error " << binding.max_rest_error << ", residual vertices " << binding.residual_vertices);
   CHECK(binding.max_rest_error <= 1e-5);
 }
@@ -334,8 +329,7 @@ TEST_CASE("DSS binding of CesiumMan's original vertices to its decimated, subdiv
   const int level = choose_subdivision_level(control.mesh.triangles.size(), input.triangles.size());
   const Refined refined = refine(control.mesh, level);
   const double diagonal = bounds_of(input.positions).diagonal();
-  const DssBinding binding =
-      bind(refined, input.positions, diagonal);
+  const DssBinding binding = bind(refined, input.positions, diagonal);
   check_well_formed(binding, input.positions.size(), refined.stencils.refined_triangles.size());
   const double error = rest_error(refined, binding, input.positions, diagonal);
   CHECK(input.positions.size() == 3273);
