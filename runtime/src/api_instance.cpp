@@ -23,7 +23,7 @@ sf_instance::sf_instance(const sf_asset& owner, const Deformable& d)
       previous_control(CallbackAllocator<glm::vec3>(owner.allocator)),
       step_normals_a(CallbackAllocator<glm::vec3>(owner.allocator)),
       step_normals_b(CallbackAllocator<glm::vec3>(owner.allocator)),
-      rest_normal_offset(CallbackAllocator<glm::vec3>(owner.allocator)), fairing(owner.allocator),
+      rest_normal_offset(CallbackAllocator<glm::vec3>(owner.allocator)), fairing(owner.allocator), contact(owner.allocator),
       fairing_frames(CallbackAllocator<glm::mat3>(owner.allocator)),
       fairing_offset(CallbackAllocator<glm::vec3>(owner.allocator)),
       fairing_start(CallbackAllocator<glm::vec3>(owner.allocator)),
@@ -211,6 +211,14 @@ sf_result evaluate(sf_instance& instance, const sf_eval_options& options) {
     // 4. Refine and displace.
     displace(d, instance.control.data(), instance.control_normal_sums.data(), instance.refined_positions.data(),
              instance.refined_normals.data(), with_normals, out);
+    // 5. The contact pass on the dense output (contact.h), when the caller turned it on.
+    instance.last_contact_pairs = instance.last_contact_moved = 0;
+    if (instance.contacts_enabled) {
+      const ContactStats stats =
+          resolve_contacts(d.contact_mesh, instance.dense_positions.data(), d.vertex_count, instance.contact);
+      instance.last_contact_pairs = stats.pairs_before;
+      instance.last_contact_moved = stats.moved;
+    }
     // This evaluation's S' and M are the next incremental evaluation's start. Swapping
     // vectors of one allocator moves pointers only: no allocation.
     instance.previous_skeletal.swap(instance.skeletal);
@@ -342,6 +350,24 @@ sf_result sf_instance_set_handle_set(sf_instance* instance, const uint32_t* hand
     instance->handles.original.swap(next.original);
     instance->handles.targets.swap(next.targets);
     instance->handles.displacements.swap(next.displacements);
+    return SF_OK;
+  });
+}
+
+sf_result sf_instance_set_contacts(sf_instance* instance, uint32_t enabled) {
+  if (!instance) return SF_ERROR_INVALID_ARGUMENT;
+  return guarded(instance, "sf_instance_set_contacts", [&]() -> sf_result {
+    if (enabled > 1)
+      return fail(instance, SF_ERROR_INVALID_ARGUMENT, "sf_instance_set_contacts: enabled is %u, not 0 or 1", enabled);
+    if (enabled && !instance->contacts_enabled) {
+      // Allocated completely before it is installed: a failure leaves the pass off.
+      ContactWorkspace workspace = make_contact_workspace(instance->deformable->contact_mesh, instance->allocator);
+      swap_workspace(instance->contact, workspace);
+    } else if (!enabled && instance->contacts_enabled) {
+      ContactWorkspace empty(instance->allocator);
+      swap_workspace(instance->contact, empty);
+    }
+    instance->contacts_enabled = enabled != 0;
     return SF_OK;
   });
 }

@@ -172,6 +172,10 @@ struct sf_instance {
   // Fairing (fair_stage.cpp): workspace, this evaluation's local frames of M, and the last
   // correction M'' − M in those frames (the warm start of the next evaluation).
   skelform::runtime::FairingWorkspace fairing;
+  skelform::runtime::ContactWorkspace contact;  // the contact pass's scratch (contact.h), while enabled
+  bool contacts_enabled = false;                // sf_instance_set_contacts
+  uint32_t last_contact_pairs = 0;              // pairs the last contact pass found (0 when it did not run)
+  uint32_t last_contact_moved = 0;              // welded vertices it moved
   skelform::runtime::Array<glm::mat3> fairing_frames;
   skelform::runtime::Array<glm::vec3> fairing_offset;
   skelform::runtime::Array<glm::vec3> fairing_start;  // M before fairing

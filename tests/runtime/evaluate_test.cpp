@@ -411,6 +411,7 @@ TEST_CASE("evaluate: evaluation and output never allocate and everything the ins
   for (uint32_t i = 0; i < positions.size(); ++i)
     if (positions[i].z > positions[top].z) top = i;
   REQUIRE(sf_instance_set_handle_set(instance, &top, 1, nullptr, 0) == SF_OK);  // allocates: allowed
+  REQUIRE(sf_instance_set_contacts(instance, 1) == SF_OK);                      // allocates: allowed
 
   const long before = counter.allocations.load();
   const std::vector<glm::mat4> pose = skelform::test::bend_pose(model, 1, 0.8f, glm::vec3(1, 0, 0));

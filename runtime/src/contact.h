@@ -1,0 +1,88 @@
+// Runtime step 5 (DESIGN.md departure, "Contact pass"): the output's remaining self-
+// intersections, resolved on the dense mesh itself.
+//
+// Flows (4) and (5) act on the control mesh, through medial balls; the dense mesh follows it by
+// displacement along the refined normals. Where two parts meet (a leg against the chest of a
+// running fox), the dense skins can still cross after the flows, and a correction of the
+// control mesh alone does not reach them (measured on Fox, whose dense vertices lie up to an
+// edge length off its control mesh: untangling the control mesh left the dense pairs in
+// place). This pass therefore works on the welded dense output: it finds the intersecting
+// pairs of non-adjacent triangles and moves their vertices out of each other, one vertex at a
+// time, keeping a move only where it lowers the number of intersecting pairs around that
+// vertex (it never adds a pair to the output). It runs after the displacement, is not part of
+// the fairing's warm start (the next evaluation starts from the flows' result, not from this
+// pass's), and leaves the normals and tangents as the displacement computed them.
+#pragma once
+
+#include "memory.h"
+
+#include <glm/vec3.hpp>
+
+#include <cstdint>
+
+namespace skelform::runtime {
+
+// The welded dense mesh of a deformable, built once at load (asset_load.cpp).
+struct ContactMesh {
+  explicit ContactMesh(const AllocatorRef& a)
+      : weld(CallbackAllocator<uint32_t>(a)), representative(CallbackAllocator<uint32_t>(a)),
+        triangles(CallbackAllocator<uint32_t>(a)), incident_offsets(CallbackAllocator<uint32_t>(a)),
+        incident(CallbackAllocator<uint32_t>(a)) {}
+  uint32_t vertex_count = 0;          // welded vertices
+  uint32_t triangle_count = 0;        // welded triangles without a repeated corner
+  Array<uint32_t> weld;               // per dense vertex: its welded vertex (same rest position, bit for bit)
+  Array<uint32_t> representative;     // per welded vertex: the first dense vertex with its position
+  Array<uint32_t> triangles;          // 3 per triangle, welded indices
+  Array<uint32_t> incident_offsets;   // vertex_count + 1 (CSR)
+  Array<uint32_t> incident;           // triangles around each welded vertex, ascending
+  float gap = 0.0f;                   // clearance a push aims for: kContactGap mean rest edges
+  float cap = 0.0f;                   // largest total move of a vertex: kContactCap mean rest edges
+};
+
+constexpr uint32_t kContactSweeps = 4;  // passes over the active vertices, at most
+constexpr float kContactGap = 0.05f;    // in mean rest edge lengths
+constexpr float kContactCap = 0.5f;     // in mean rest edge lengths
+
+// Builds the welded mesh from the dense rest positions and triangles. Throws std::bad_alloc.
+ContactMesh build_contact_mesh(const glm::vec3* rest_positions, uint32_t vertex_count, const uint32_t* triangles,
+                               size_t triangle_count, const AllocatorRef& allocator);
+
+// Scratch of one instance, sized once for its mesh (make_contact_workspace).
+struct ContactWorkspace {
+  explicit ContactWorkspace(const AllocatorRef& a)
+      : positions(CallbackAllocator<glm::vec3>(a)), start(CallbackAllocator<glm::vec3>(a)),
+        state(CallbackAllocator<uint8_t>(a)), active(CallbackAllocator<uint32_t>(a)), cell_offsets(CallbackAllocator<uint32_t>(a)),
+        entries(CallbackAllocator<uint32_t>(a)), oversized(CallbackAllocator<uint32_t>(a)),
+        ranges(CallbackAllocator<int16_t>(a)), boxes(CallbackAllocator<float>(a)),
+        normals(CallbackAllocator<glm::vec3>(a)), stamps(CallbackAllocator<uint32_t>(a)),
+        candidates(CallbackAllocator<uint32_t>(a)) {}
+  Array<glm::vec3> positions;    // welded positions
+  Array<glm::vec3> start;        // position of each active vertex when the pass began
+  Array<uint8_t> state;          // per welded vertex: active (in a detected pair), moved
+  Array<uint32_t> active;        // the active vertices, ascending
+  Array<uint32_t> cell_offsets;  // broad-phase grid (CSR), at most 4 cells per triangle
+  Array<uint32_t> entries;       // triangles per cell, 8 entries per triangle reserved
+  Array<uint32_t> oversized;     // triangles past the reserved entries: tested against all
+  Array<int16_t> ranges;         // per triangle: its cells (lo xyz, hi xyz)
+  Array<float> boxes;            // per triangle: its box when the pass began (lo xyz, hi xyz)
+  Array<glm::vec3> normals;      // per triangle: its unit normal when the pass began (0 if degenerate)
+  Array<uint32_t> stamps;        // per triangle: the last gather that listed it
+  Array<uint32_t> candidates;    // the last gather's triangles
+  uint32_t stamp = 0;
+};
+
+// Throws std::bad_alloc.
+ContactWorkspace make_contact_workspace(const ContactMesh& mesh, const AllocatorRef& allocator);
+// Exchanges the buffers of two workspaces (no allocation).
+void swap_workspace(ContactWorkspace& a, ContactWorkspace& b);
+
+struct ContactStats {
+  uint32_t pairs_before = 0;  // intersecting pairs found by the first detection
+  uint32_t moved = 0;         // welded vertices moved
+};
+
+// The pass on `dense_positions` (per dense vertex, in place). Deterministic.
+ContactStats resolve_contacts(const ContactMesh& mesh, glm::vec3* dense_positions, uint32_t dense_vertex_count,
+                              ContactWorkspace& workspace);
+
+}  // namespace skelform::runtime

@@ -1,0 +1,194 @@
+// The contact pass (runtime/src/contact.h) on scenes whose answer is known: an octahedron's
+// tip pushed through the top face of a cube comes back out along the face normal and nothing
+// else moves; no intersection, no change; welded copies move together; a non-finite position
+// leaves the output alone. Through the C API: set_contacts' arguments, evaluation never
+// allocates with the pass on, and the pass is output only (turned off again, an instance gives
+// the bits of one that never had it).
+#include "contact.h"
+#include "runtime/runtime_models.h"
+#include "skelform/bake/self_intersection.h"
+
+#include <doctest/doctest.h>
+#include <glm/geometric.hpp>
+
+#include <atomic>
+#include <cmath>
+#include <cstring>
+#include <limits>
+#include <vector>
+
+using skelform::runtime::build_contact_mesh;
+using skelform::runtime::ContactMesh;
+using skelform::runtime::ContactStats;
+using skelform::runtime::ContactWorkspace;
+using skelform::runtime::make_contact_workspace;
+using skelform::runtime::resolve_contacts;
+
+namespace {
+
+// A unit cube [0, 1]³ and an octahedron of radius 0.5 about (0.5, 0.5, 1.5) whose lowest
+// vertex is at height `tip` (1.0 would touch the cube's top face). Octahedron first: vertex 0
+// is the tip. Both outward-facing. `duplicate_tip` adds a second vertex at the tip's position
+// that two of the tip's triangles use instead (a glTF seam).
+struct Scene {
+  std::vector<glm::vec3> positions;
+  std::vector<uint32_t> triangles;
+
+  explicit Scene(float tip, bool duplicate_tip = false) {
+    const glm::vec3 c(0.5f, 0.5f, 1.5f);
+    positions = {glm::vec3(c.x, c.y, tip),        c + glm::vec3(0.5f, 0, 0), c + glm::vec3(0, 0.5f, 0),
+                 c + glm::vec3(-0.5f, 0, 0),      c + glm::vec3(0, -0.5f, 0), c + glm::vec3(0, 0, 0.5f)};
+    const uint32_t tip_copy = duplicate_tip ? 6u : 0u;
+    if (duplicate_tip) positions.push_back(positions[0]);
+    // Lower half (around the tip), then upper half (around vertex 5), outward.
+    const uint32_t octahedron[] = {0, 2, 1, tip_copy, 3, 2, tip_copy, 4, 3, 0, 1, 4,
+                                   5, 1, 2, 5, 2, 3, 5, 3, 4, 5, 4, 1};
+    triangles.assign(std::begin(octahedron), std::end(octahedron));
+    const uint32_t base = uint32_t(positions.size());
+    for (int i = 0; i < 8; ++i) positions.emplace_back(float(i & 1), float((i >> 1) & 1), float((i >> 2) & 1));
+    // Cube faces, outward: corners indexed by bits (x, y, z).
+    const uint32_t cube[] = {0, 2, 3, 0, 3, 1,  // z = 0
+                             4, 5, 7, 4, 7, 6,  // z = 1
+                             0, 1, 5, 0, 5, 4,  // y = 0
+                             2, 6, 7, 2, 7, 3,  // y = 1
+                             0, 4, 6, 0, 6, 2,  // x = 0
+                             1, 3, 7, 1, 7, 5}; // x = 1
+    for (uint32_t i : cube) triangles.push_back(base + i);
+  }
+
+  // Intersecting pairs of non-adjacent triangles, with vertices at one rest position welded (a
+  // seam's copies are one vertex: the triangles around it are adjacent).
+  size_t pairs(const std::vector<glm::vec3>& at) const {
+    skelform::bake::TriangleMesh mesh;
+    std::vector<uint32_t> weld(positions.size());
+    for (size_t v = 0; v < positions.size(); ++v) {
+      weld[v] = uint32_t(v);
+      for (size_t u = 0; u < v; ++u)
+        if (positions[u] == positions[v]) {
+          weld[v] = weld[u];
+          break;
+        }
+    }
+    for (const glm::vec3& p : at) mesh.positions.push_back(skelform::bake::Vec3(p));
+    for (size_t t = 0; t < triangles.size(); t += 3)
+      mesh.triangles.push_back({weld[triangles[t]], weld[triangles[t + 1]], weld[triangles[t + 2]]});
+    return skelform::bake::count_self_intersections(mesh);
+  }
+};
+
+struct Pass {
+  ContactMesh mesh;
+  ContactWorkspace workspace;
+  explicit Pass(const Scene& scene)
+      : mesh(build_contact_mesh(scene.positions.data(), uint32_t(scene.positions.size()), scene.triangles.data(),
+                                scene.triangles.size() / 3, {})),
+        workspace(make_contact_workspace(mesh, {})) {}
+  ContactStats run(std::vector<glm::vec3>& x) { return resolve_contacts(mesh, x.data(), uint32_t(x.size()), workspace); }
+};
+
+}  // namespace
+
+TEST_CASE("contact: a tip pushed through a face comes back out along the face normal, nothing else moves") {
+  const Scene scene(0.9f);  // 0.1 below the cube's top face
+  std::vector<glm::vec3> x = scene.positions;
+  const size_t before = scene.pairs(x);
+  REQUIRE(before > 0);
+  Pass pass(scene);
+  CHECK(pass.mesh.vertex_count == 14);
+  const ContactStats stats = pass.run(x);
+  MESSAGE("pairs " << before << " -> " << scene.pairs(x) << ", tip at z = " << x[0].z);
+  CHECK(stats.pairs_before == before);
+  CHECK(stats.moved == 1);
+  CHECK(scene.pairs(x) == 0);
+  // The tip left along the top face's normal (+z), at least to the face, by at most the cap.
+  CHECK(x[0].x == scene.positions[0].x);
+  CHECK(x[0].y == scene.positions[0].y);
+  CHECK(x[0].z > 1.0f);
+  CHECK(x[0].z - scene.positions[0].z <= pass.mesh.cap * 1.0001f);
+  for (size_t v = 1; v < x.size(); ++v) CHECK(std::memcmp(&x[v], &scene.positions[v], sizeof(glm::vec3)) == 0);
+}
+
+TEST_CASE("contact: no intersection, no change; welded copies move together; non-finite input is left alone") {
+  SUBCASE("apart") {
+    const Scene scene(1.1f);
+    std::vector<glm::vec3> x = scene.positions;
+    REQUIRE(scene.pairs(x) == 0);
+    Pass pass(scene);
+    const ContactStats stats = pass.run(x);
+    CHECK(stats.pairs_before == 0);
+    CHECK(stats.moved == 0);
+    CHECK(std::memcmp(x.data(), scene.positions.data(), x.size() * sizeof(glm::vec3)) == 0);
+  }
+  SUBCASE("a seam at the tip") {
+    const Scene scene(0.9f, true);
+    std::vector<glm::vec3> x = scene.positions;
+    Pass pass(scene);
+    CHECK(pass.mesh.vertex_count == 14);  // the copy welds to the tip
+    CHECK(pass.mesh.weld[6] == pass.mesh.weld[0]);
+    REQUIRE(scene.pairs(x) > 0);
+    pass.run(x);
+    CHECK(scene.pairs(x) == 0);
+    CHECK(x[0].z > 1.0f);
+    CHECK(std::memcmp(&x[0], &x[6], sizeof(glm::vec3)) == 0);
+  }
+  SUBCASE("NaN") {
+    const Scene scene(0.9f);
+    std::vector<glm::vec3> x = scene.positions;
+    x[3].y = std::numeric_limits<float>::quiet_NaN();
+    const std::vector<glm::vec3> given = x;
+    Pass pass(scene);
+    const ContactStats stats = pass.run(x);
+    CHECK(stats.moved == 0);
+    CHECK(std::memcmp(x.data(), given.data(), x.size() * sizeof(glm::vec3)) == 0);
+  }
+  SUBCASE("scale") {
+    // Lengths are relative to the mean rest edge: ×1024 (exact in float) gives the same bits ×1024.
+    const Scene scene(0.9f);
+    Scene scaled(0.9f);
+    for (glm::vec3& p : scaled.positions) p *= 1024.0f;
+    std::vector<glm::vec3> x = scene.positions, y = scaled.positions;
+    Pass(scene).run(x);
+    Pass(scaled).run(y);
+    for (size_t v = 0; v < x.size(); ++v) CHECK(std::memcmp(&y[v], &(x[v] *= 1024.0f), sizeof(glm::vec3)) == 0);
+  }
+}
+
+TEST_CASE("contact: sf_instance_set_contacts - arguments; the pass is output only") {
+  const skelform::test::RuntimeModel& model = skelform::test::capsule_model();
+  sf_instance *with = nullptr, *without = nullptr;
+  REQUIRE(sf_instance_create(model.asset, 0, &with) == SF_OK);
+  REQUIRE(sf_instance_create(model.asset, 0, &without) == SF_OK);
+  CHECK(sf_instance_set_contacts(nullptr, 1) == SF_ERROR_INVALID_ARGUMENT);
+  CHECK(sf_instance_set_contacts(with, 2) == SF_ERROR_INVALID_ARGUMENT);
+  CHECK(std::strstr(sf_instance_last_error(with), "not 0 or 1") != nullptr);
+  REQUIRE(sf_instance_set_contacts(with, 1) == SF_OK);
+  REQUIRE(sf_instance_set_contacts(with, 1) == SF_OK);  // again: no change
+  // Bent far, the capsule's inner side folds into itself: the pass has pairs to work on, and
+  // the two instances' outputs differ.
+  bool differed = false;
+  for (int k = 0; k <= 12; ++k) {
+    const std::vector<glm::mat4> pose = skelform::test::bend_pose(model, 1, 0.2f * float(k), glm::vec3(1, 0, 0));
+    for (sf_instance* i : {with, without}) {
+      REQUIRE(sf_instance_set_joint_matrices(i, &pose[0][0][0], pose.size(), 0) == SF_OK);
+      REQUIRE(sf_instance_evaluate(i, nullptr) == SF_OK);
+    }
+    const skelform::test::Evaluated a = skelform::test::write_all(with, model.asset);
+    const skelform::test::Evaluated b = skelform::test::write_all(without, model.asset);
+    differed = differed || std::memcmp(a.positions.data(), b.positions.data(), a.positions.size() * sizeof(glm::vec3)) != 0;
+  }
+  CHECK(differed);
+  // Off again: the next evaluation equals the one of the instance that never had the pass,
+  // bit for bit (the pass never fed the fairing's warm start).
+  REQUIRE(sf_instance_set_contacts(with, 0) == SF_OK);
+  const std::vector<glm::mat4> pose = skelform::test::bend_pose(model, 1, 2.3f, glm::vec3(1, 0, 0));
+  for (sf_instance* i : {with, without}) {
+    REQUIRE(sf_instance_set_joint_matrices(i, &pose[0][0][0], pose.size(), 0) == SF_OK);
+    REQUIRE(sf_instance_evaluate(i, nullptr) == SF_OK);
+  }
+  const skelform::test::Evaluated a = skelform::test::write_all(with, model.asset);
+  const skelform::test::Evaluated b = skelform::test::write_all(without, model.asset);
+  CHECK(std::memcmp(a.positions.data(), b.positions.data(), a.positions.size() * sizeof(glm::vec3)) == 0);
+  CHECK(std::memcmp(a.normals.data(), b.normals.data(), a.normals.size() * sizeof(glm::vec3)) == 0);
+  sf_instance_destroy(with);
+  sf_instance_destroy(without);
+}
