@@ -5,6 +5,8 @@
 //   skelform_unfaired  the same with fairing off (SF_FAIR_OFF): the difference is the
 //               fairing's share
 //   skelform_semi_implicit  the same with the semi-implicit fairing steps (SF_FAIR_SEMI_IMPLICIT)
+//   skelform_contacts  the default evaluation with the contact pass turned on
+//               (sf_instance_set_contacts; off by default)
 //   lbs, dqs    the runtime's baselines (SF_METHOD_LBS / SF_METHOD_DQS), same calls
 //   delta_mush  Delta Mush with 10 smoothing iterations (bench/delta_mush.h), positions only
 // on CesiumMan (3,273 vertices) and CesiumMan Loop-subdivided twice (~75K triangles), posed by
@@ -14,7 +16,8 @@
 //   skelform-bench [Google Benchmark flags]     Google Benchmark tables
 //   skelform-bench --json [--smoke] [--cpu]     one JSON line per mesh:
 //     {"mesh": name, "vertices": n, "ms": {"skelform": .., "skelform_unfaired": ..,
-//      "skelform_semi_implicit": .., "lbs": .., "dqs": .., "delta_mush": ..}}
+//      "skelform_semi_implicit": .., "skelform_contacts": ..,
+//      "lbs": .., "dqs": .., "delta_mush": ..}}
 //     each figure the median of timed evaluations, the methods taking turns frame by frame
 //     (--smoke: a handful, for CI); wall time, or
 //     with --cpu the thread's CPU time (the fairer figure on a loaded machine)
@@ -48,15 +51,26 @@ using skelform::bench::DeltaMush;
 
 constexpr double kFramesPerSecond = 30.0;
 
-enum class Method { skelform, skelform_unfaired, skelform_semi_implicit, lbs, dqs, delta_mush };
-constexpr std::array<Method, 6> kMethods = {Method::skelform, Method::skelform_unfaired, Method::skelform_semi_implicit,
-                                            Method::lbs, Method::dqs, Method::delta_mush};
+enum class Method {
+  skelform,
+  skelform_unfaired,
+  skelform_semi_implicit,
+  skelform_contacts,
+  lbs,
+  dqs,
+  delta_mush
+};
+constexpr std::array<Method, 7> kMethods = {Method::skelform,          Method::skelform_unfaired,
+                                            Method::skelform_semi_implicit, Method::skelform_contacts,
+                                            Method::lbs,               Method::dqs,
+                                            Method::delta_mush};
 
 const char* method_name(Method method) {
   switch (method) {
     case Method::skelform: return "skelform";
     case Method::skelform_unfaired: return "skelform_unfaired";
     case Method::skelform_semi_implicit: return "skelform_semi_implicit";
+    case Method::skelform_contacts: return "skelform_contacts";
     case Method::lbs: return "lbs";
     case Method::dqs: return "dqs";
     case Method::delta_mush: return "delta_mush";
@@ -99,6 +113,9 @@ class Scene {
     positions_.resize(3 * size_t{info_.vertex_count});
     normals_.resize(3 * size_t{info_.vertex_count});
     for (size_t m = 0; m < instances_.size(); ++m) check(sf_instance_create(asset_, 0, &instances_[m]), "sf_instance_create");
+    const sf_instance* contacts = instances_[static_cast<size_t>(Method::skelform_contacts)];
+    check(sf_instance_set_contacts(instances_[static_cast<size_t>(Method::skelform_contacts)], 1),
+          "sf_instance_set_contacts", contacts);
 
     // Poses: the original CesiumMan's animation (the subdivided file carries the same skin).
     const skelform::samples::GltfAnimation gltf = skelform::samples::GltfAnimation::load_file(unbaked);
@@ -173,7 +190,7 @@ class Scene {
   sf_asset* asset_ = nullptr;
   sf_deformable_info info_{};
   std::vector<sf_primitive_info> primitives_;
-  std::array<sf_instance*, 5> instances_{};  // indexed by Method (every one but delta_mush)
+  std::array<sf_instance*, kMethods.size() - 1> instances_{};  // indexed by Method (every one but delta_mush)
   std::vector<std::vector<float>> poses_;
   std::unique_ptr<DeltaMush> delta_mush_;
   std::vector<float> positions_, normals_;
