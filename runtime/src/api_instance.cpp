@@ -361,11 +361,9 @@ sf_result sf_instance_set_contacts(sf_instance* instance, uint32_t enabled) {
       return fail(instance, SF_ERROR_INVALID_ARGUMENT, "sf_instance_set_contacts: enabled is %u, not 0 or 1", enabled);
     if (enabled && !instance->contacts_enabled) {
       // Allocated completely before it is installed: a failure leaves the pass off.
-      ContactWorkspace workspace = make_contact_workspace(instance->deformable->contact_mesh, instance->allocator);
-      swap_workspace(instance->contact, workspace);
+      instance->contact = make_contact_workspace(instance->deformable->contact_mesh, instance->allocator);
     } else if (!enabled && instance->contacts_enabled) {
-      ContactWorkspace empty(instance->allocator);
-      swap_workspace(instance->contact, empty);
+      instance->contact = ContactWorkspace(instance->allocator);  // frees the buffers
     }
     instance->contacts_enabled = enabled != 0;
     return SF_OK;

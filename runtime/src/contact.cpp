@@ -433,22 +433,6 @@ ContactWorkspace make_contact_workspace(const ContactMesh& mesh, const Allocator
   return ws;
 }
 
-void swap_workspace(ContactWorkspace& a, ContactWorkspace& b) {
-  a.positions.swap(b.positions);
-  a.start.swap(b.start);
-  a.state.swap(b.state);
-  a.active.swap(b.active);
-  a.cell_offsets.swap(b.cell_offsets);
-  a.entries.swap(b.entries);
-  a.oversized.swap(b.oversized);
-  a.ranges.swap(b.ranges);
-  a.boxes.swap(b.boxes);
-  a.normals.swap(b.normals);
-  a.stamps.swap(b.stamps);
-  a.candidates.swap(b.candidates);
-  std::swap(a.stamp, b.stamp);
-}
-
 ContactStats resolve_contacts(const ContactMesh& mesh, glm::vec3* dense_positions, uint32_t dense_vertex_count,
                               ContactWorkspace& ws) {
   ContactStats stats;

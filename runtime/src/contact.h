@@ -73,8 +73,6 @@ struct ContactWorkspace {
 
 // Throws std::bad_alloc.
 ContactWorkspace make_contact_workspace(const ContactMesh& mesh, const AllocatorRef& allocator);
-// Exchanges the buffers of two workspaces (no allocation).
-void swap_workspace(ContactWorkspace& a, ContactWorkspace& b);
 
 struct ContactStats {
   uint32_t pairs_before = 0;  // intersecting pairs found by the first detection
