@@ -47,6 +47,14 @@ node -e '
   process.exitCode = bin(process.argv[1]).equals(bin(process.argv[2])) ? 0 : 1;' \
   "$WORK/baked.anim.glb" "$WORK/character.anim.glb" || fail "a baked input gives other frames than baking in memory"
 
+# --contacts: the same contract (the LBS half is the same bits; the skelform half may differ
+# only where the contact pass moved vertices), deterministic, valid.
+"$ANIMATE" -q "$WORK/character.glb" -o "$WORK/contacts.anim.glb" --contacts --max-frames 8 || fail "--contacts"
+"$ANIMATE" -q "$WORK/character.glb" -o "$WORK/contacts.again.glb" --contacts --max-frames 8 || fail "--contacts (second run)"
+cmp -s "$WORK/contacts.anim.glb" "$WORK/contacts.again.glb" || fail "skelform-animate --contacts is not deterministic"
+node "$CHECK" "$WORK/contacts.anim.glb" --frames 8,8 >/dev/null || fail "contacts.anim.glb breaks the contract"
+validate "$WORK/contacts.anim.glb"
+
 # --fps and --max-frames: walk 1 s at 10 fps = 11 frames, bend 3 s = 31, both capped at 5.
 "$ANIMATE" -q "$WORK/character.glb" -o "$WORK/capped.anim.glb" --fps 10 --max-frames 5 || fail "--fps 10 --max-frames 5"
 node "$CHECK" "$WORK/capped.anim.glb" --frames 5,5 --fps 10 >/dev/null || fail "capped.anim.glb: frame counts"
