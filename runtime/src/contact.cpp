@@ -457,8 +457,12 @@ ContactStats resolve_contacts(const ContactMesh& mesh, glm::vec3* dense_position
   std::sort(ws.active.begin(), ws.active.end());
   for (uint32_t v : ws.active) ws.start[v] = x[v];
   // Do no harm: an active vertex takes its push (or half, or a quarter of it) only if the
-  // intersecting pairs around it become fewer; in index order, each seeing the moves before it,
-  // sweep after sweep while some vertex moves. Its total motion stays within the grid's pad.
+  // intersecting pairs around it do not become more; in index order, each seeing the moves
+  // before it, sweep after sweep while some vertex moves. Its total motion stays within the
+  // grid's pad. (Not more rather than fewer: a row of vertices crossing another sheet clears
+  // only once all of them are out, and each alone changes no count. Measured, pairs summed
+  // over the sample animations with fewer / not more: CesiumMan 5 / 3, Fox Run 226 / 176,
+  // Walk 70 / 57, the 75K-triangle CesiumMan 3,112 / 2,778; the bent capsule 109 -> 78 / 61.)
   for (uint32_t sweep = 0; sweep < kContactSweeps; ++sweep) {
     bool any = false;
     for (uint32_t v : ws.active) {
@@ -475,7 +479,7 @@ ContactStats resolve_contacts(const ContactMesh& mesh, glm::vec3* dense_position
       bool accepted = false;
       for (int attempt = 0; attempt < 3 && !accepted; ++attempt, step *= 0.5f) {
         x[v] = old + step;
-        accepted = grid.pairs_around(v, nullptr) < before;
+        accepted = grid.pairs_around(v, nullptr) <= before;
       }
       if (!accepted) {
         x[v] = old;
