@@ -208,10 +208,12 @@ TEST_CASE("fair animation with the contact pass: Fox - never more pairs than LBS
 namespace {
 
 // Max vertex motion between consecutive incremental evaluations of a held pose, after
-// `warm_up` evaluations, over `measured` more; / the bounding-box diagonal.
+// `warm_up` evaluations, over `measured` more; / the bounding-box diagonal. `contacts`: with
+// the contact pass on.
 double held_pose_jitter(const skelform::test::RuntimeModel& model, const std::vector<float>& joints, int warm_up,
-                        int measured) {
+                        int measured, bool contacts = false) {
   Instance held(model.asset);
+  if (contacts) REQUIRE(sf_instance_set_contacts(held.instance, 1) == SF_OK);
   REQUIRE(sf_instance_set_joint_matrices(held.instance, joints.data(), model.inverse_bind.size(), 0) == SF_OK);
   std::vector<glm::vec3> previous;
   double jitter = 0.0;
@@ -275,6 +277,11 @@ TEST_CASE("fair animation: CesiumMan held mid-animation stops moving and its ani
   const double jitter = held_pose_jitter(*model, poses.back(), 30, 10);
   MESSAGE("CesiumMan held at frame 29: jitter " << jitter << " of the diagonal after 30 evaluations");
   CHECK(jitter < 1e-6);
+  // With the contact pass: the pass sees the same converged input every evaluation, so it
+  // adds no motion of its own.
+  const double with_contacts = held_pose_jitter(*model, poses.back(), 30, 10, true);
+  MESSAGE("with the contact pass: jitter " << with_contacts << " of the diagonal");
+  CHECK(with_contacts < 1e-6);
 }
 
 TEST_CASE("fair animation: one iteration per incremental evaluation by default; a pose jump or from_rest converges") {
