@@ -224,7 +224,7 @@ SF_API sf_result sf_instance_set_handle_targets(sf_instance* instance, const flo
  * found on the dense mesh (welded by rest position) and their vertices moved out of each
  * other, each move kept only where the number of intersecting triangle pairs around the vertex
  * does not grow, so the pass never adds a pair. It costs a broad phase over every dense triangle
- * per evaluation (bench/, one core: about +1.1 ms on a 4.6K-triangle character, +15 ms on
+ * per evaluation (bench/, one core: about +1.1 ms on a 4.6K-triangle character, +17 ms on
  * 75K), which is why it is opt-in. It is output only: the fairing's warm start never sees it.
  * Turning it on allocates its scratch (about 30 bytes per dense vertex and 110 per triangle);
  * turning it off frees it. Normals and tangents are left as the displacement computed them.
