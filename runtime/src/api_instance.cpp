@@ -11,6 +11,7 @@
 #include <cstring>
 #include <new>
 #include <stdexcept>
+#include <utility>
 
 using namespace skelform::runtime;
 
@@ -23,7 +24,8 @@ sf_instance::sf_instance(const sf_asset& owner, const Deformable& d)
       previous_control(CallbackAllocator<glm::vec3>(owner.allocator)),
       step_normals_a(CallbackAllocator<glm::vec3>(owner.allocator)),
       step_normals_b(CallbackAllocator<glm::vec3>(owner.allocator)),
-      rest_normal_offset(CallbackAllocator<glm::vec3>(owner.allocator)), fairing(owner.allocator), contact(owner.allocator),
+      rest_normal_offset(CallbackAllocator<glm::vec3>(owner.allocator)), fairing(owner.allocator),
+      contact_mesh(owner.allocator), contact(owner.allocator),
       fairing_frames(CallbackAllocator<glm::mat3>(owner.allocator)),
       fairing_offset(CallbackAllocator<glm::vec3>(owner.allocator)),
       fairing_start(CallbackAllocator<glm::vec3>(owner.allocator)),
@@ -212,13 +214,8 @@ sf_result evaluate(sf_instance& instance, const sf_eval_options& options) {
     displace(d, instance.control.data(), instance.control_normal_sums.data(), instance.refined_positions.data(),
              instance.refined_normals.data(), with_normals, out);
     // 5. The contact pass on the dense output (contact.h), when the caller turned it on.
-    instance.last_contact_pairs = instance.last_contact_moved = 0;
-    if (instance.contacts_enabled) {
-      const ContactStats stats =
-          resolve_contacts(d.contact_mesh, instance.dense_positions.data(), d.vertex_count, instance.contact);
-      instance.last_contact_pairs = stats.pairs_before;
-      instance.last_contact_moved = stats.moved;
-    }
+    if (instance.contacts_enabled)
+      resolve_contacts(instance.contact_mesh, instance.dense_positions.data(), d.vertex_count, instance.contact);
     // This evaluation's S' and M are the next incremental evaluation's start. Swapping
     // vectors of one allocator moves pointers only: no allocation.
     instance.previous_skeletal.swap(instance.skeletal);
@@ -360,10 +357,17 @@ sf_result sf_instance_set_contacts(sf_instance* instance, uint32_t enabled) {
     if (enabled > 1)
       return fail(instance, SF_ERROR_INVALID_ARGUMENT, "sf_instance_set_contacts: enabled is %u, not 0 or 1", enabled);
     if (enabled && !instance->contacts_enabled) {
-      // Allocated completely before it is installed: a failure leaves the pass off.
-      instance->contact = make_contact_workspace(instance->deformable->contact_mesh, instance->allocator);
+      // Built here, for the instances that use the pass, not at load for every asset. Both
+      // are complete before they are installed: a failure leaves the pass off.
+      const Deformable& d = *instance->deformable;
+      ContactMesh mesh = build_contact_mesh(d.rest_positions.data(), d.vertex_count, d.dense_triangles.data(),
+                                            d.dense_triangles.size() / 3, instance->allocator);
+      ContactWorkspace workspace = make_contact_workspace(mesh, instance->allocator);
+      instance->contact_mesh = std::move(mesh);
+      instance->contact = std::move(workspace);
     } else if (!enabled && instance->contacts_enabled) {
-      instance->contact = ContactWorkspace(instance->allocator);  // frees the buffers
+      instance->contact_mesh = ContactMesh(instance->allocator);  // frees the buffers
+      instance->contact = ContactWorkspace(instance->allocator);
     }
     instance->contacts_enabled = enabled != 0;
     return SF_OK;

@@ -3,7 +3,6 @@
 // by the conventions below, so the hot loops read them without indirection.
 #pragma once
 
-#include "contact.h"
 #include "fair.h"
 #include "memory.h"
 #include "skelform/skelform.h"
@@ -49,7 +48,7 @@ struct Deformable {
         binding_displacement(CallbackAllocator<float>(a)), binding_residual(CallbackAllocator<glm::vec2>(a)),
         binding_corners(CallbackAllocator<uint32_t>(a)), rest_normal_coords(CallbackAllocator<glm::vec3>(a)),
         rest_tangent_coords(CallbackAllocator<glm::vec3>(a)), handle_control_vertex(CallbackAllocator<uint32_t>(a)),
-        fairing_topology(a), fairing_rest(a), contact_mesh(a) {}
+        fairing_topology(a), fairing_rest(a) {}
 
   int32_t mesh = -1;
   int32_t node = -1;
@@ -136,9 +135,6 @@ struct Deformable {
   FairingTopology fairing_topology;
   FairingRest fairing_rest;
   bool fairing_supported = false;
-
-  // The contact pass (contact.h): the dense mesh welded by rest position, built at load time.
-  ContactMesh contact_mesh;
 };
 
 }  // namespace skelform::runtime

@@ -741,9 +741,6 @@ sf_asset* load_asset(const unsigned char* bytes, size_t size, const std::string&
     load_deformable(model, deformables->Get(static_cast<int>(d)), prefix + " deformable " + std::to_string(d), deformable);
     derive_rest_data(deformable);
     derive_fairing_data(deformable, allocator);
-    deformable.contact_mesh =
-        build_contact_mesh(deformable.rest_positions.data(), deformable.vertex_count, deformable.dense_triangles.data(),
-                           deformable.dense_triangles.size() / 3, allocator);
   }
   return asset.release();
 }

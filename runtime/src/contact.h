@@ -22,7 +22,8 @@
 
 namespace skelform::runtime {
 
-// The welded dense mesh of a deformable, built once at load (asset_load.cpp).
+// The welded dense mesh of a deformable, built when an instance turns the pass on
+// (sf_instance_set_contacts).
 struct ContactMesh {
   explicit ContactMesh(const AllocatorRef& a)
       : weld(CallbackAllocator<uint32_t>(a)), representative(CallbackAllocator<uint32_t>(a)),

@@ -13,6 +13,7 @@
 #pragma once
 
 #include "asset.h"
+#include "contact.h"
 #include "fair.h"
 #include "memory.h"
 #include "skin_blend.h"
@@ -172,10 +173,11 @@ struct sf_instance {
   // Fairing (fair_stage.cpp): workspace, this evaluation's local frames of M, and the last
   // correction M'' − M in those frames (the warm start of the next evaluation).
   skelform::runtime::FairingWorkspace fairing;
-  skelform::runtime::ContactWorkspace contact;  // the contact pass's scratch (contact.h), while enabled
-  bool contacts_enabled = false;                // sf_instance_set_contacts
-  uint32_t last_contact_pairs = 0;              // pairs the last contact pass found (0 when it did not run)
-  uint32_t last_contact_moved = 0;              // welded vertices it moved
+  // The contact pass (contact.h), while sf_instance_set_contacts has it on: the welded dense
+  // mesh and the pass's scratch (both empty while it is off).
+  skelform::runtime::ContactMesh contact_mesh;
+  skelform::runtime::ContactWorkspace contact;
+  bool contacts_enabled = false;
   skelform::runtime::Array<glm::mat3> fairing_frames;
   skelform::runtime::Array<glm::vec3> fairing_offset;
   skelform::runtime::Array<glm::vec3> fairing_start;  // M before fairing

@@ -226,8 +226,8 @@ SF_API sf_result sf_instance_set_handle_targets(sf_instance* instance, const flo
  * does not grow, so the pass never adds a pair. It costs a broad phase over every dense triangle
  * per evaluation (bench/, one core: about +1.1 ms on a 4.6K-triangle character, +17 ms on
  * 75K), which is why it is opt-in. It is output only: the fairing's warm start never sees it.
- * Turning it on allocates its scratch (about 30 bytes per dense vertex and 110 per triangle);
- * turning it off frees it. Normals and tangents are left as the displacement computed them.
+ * Turning it on builds the welded mesh and allocates the pass's scratch (about 40 bytes per
+ * dense vertex and 135 per triangle: 11.7 MB for 75K triangles); turning it off frees them. Normals and tangents are left as the displacement computed them.
  * `enabled` is 0 or 1. */
 SF_API sf_result sf_instance_set_contacts(sf_instance* instance, uint32_t enabled);
 
