@@ -418,6 +418,9 @@ Measured fair_from_rest(const BentCapsule& scene, bool semi_implicit, bool repor
 //   axis clears the bones' inner sides (51 pairs -> 1) but not the blend zone, whose loop it
 //   keeps (78 pairs, -6 to -7 %; the enclosed volume counts a region inside both skins twice,
 //   so part of the -2.6 % above is overlap).
+// - Keeping the faired mesh where the bend stretches it and the mitre only where it compresses
+//   it (blended by how much) does not reach it: 105-126 pairs. The faired blend zone has pairs
+//   on the stretched (outer) side as well, where 150 degrees of twist and the bend meet.
 // So the next step is a joint model of its own after the fairing: for each parent-child pair
 // of the skin, the bisector plane at the child joint, each side remapped along its own bone
 // axis over the blend zone, the outer side rounded rather than ridged for characters.
