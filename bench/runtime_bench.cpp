@@ -113,9 +113,8 @@ class Scene {
     positions_.resize(3 * size_t{info_.vertex_count});
     normals_.resize(3 * size_t{info_.vertex_count});
     for (size_t m = 0; m < instances_.size(); ++m) check(sf_instance_create(asset_, 0, &instances_[m]), "sf_instance_create");
-    const sf_instance* contacts = instances_[static_cast<size_t>(Method::skelform_contacts)];
-    check(sf_instance_set_contacts(instances_[static_cast<size_t>(Method::skelform_contacts)], 1),
-          "sf_instance_set_contacts", contacts);
+    sf_instance* contacts = instances_[static_cast<size_t>(Method::skelform_contacts)];
+    check(sf_instance_set_contacts(contacts, 1), "sf_instance_set_contacts", contacts);
 
     // Poses: the original CesiumMan's animation (the subdivided file carries the same skin).
     const skelform::samples::GltfAnimation gltf = skelform::samples::GltfAnimation::load_file(unbaked);

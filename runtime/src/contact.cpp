@@ -85,7 +85,7 @@ class Grid {
     float* boxes = ws_.boxes.data();
     for (uint32_t t = 0; t < n; ++t) {
       glm::vec3 a, b;
-      box(t, 0.0f, a, b);
+      box(t, a, b);
       for (int k = 0; k < 3; ++k) {
         boxes[6 * size_t(t) + k] = a[k];
         boxes[6 * size_t(t) + 3 + k] = b[k];
@@ -221,7 +221,7 @@ class Grid {
     glm::vec3 lo(std::numeric_limits<float>::max()), hi(-std::numeric_limits<float>::max());
     for (uint32_t k = mesh_.incident_offsets[v]; k < mesh_.incident_offsets[v + 1]; ++k) {
       glm::vec3 a, b;
-      box(mesh_.incident[k], 0.0f, a, b);
+      box(mesh_.incident[k], a, b);
       lo = glm::min(lo, a);
       hi = glm::max(hi, b);
     }
@@ -233,7 +233,7 @@ class Grid {
       if (ws_.stamps[t] == ws_.stamp) return;
       ws_.stamps[t] = ws_.stamp;
       glm::vec3 a, b;
-      box(t, 0.0f, a, b);
+      box(t, a, b);
       if (a.x > hi.x || lo.x > b.x || a.y > hi.y || lo.y > b.y || a.z > hi.z || lo.z > b.z) return;
       ws_.candidates.push_back(t);  // at most every triangle: reserved
     };
@@ -256,10 +256,10 @@ class Grid {
     for (uint32_t k = mesh_.incident_offsets[v]; k < mesh_.incident_offsets[v + 1]; ++k) {
       const uint32_t s = mesh_.incident[k];
       glm::vec3 a, b;
-      box(s, 0.0f, a, b);
+      box(s, a, b);
       for (uint32_t t : ws_.candidates) {
         glm::vec3 c, d;
-        box(t, 0.0f, c, d);
+        box(t, c, d);
         if (a.x > d.x || c.x > b.x || a.y > d.y || c.y > b.y || a.z > d.z || c.z > b.z || !meet(s, t)) continue;
         ++count;
         if (push) add_push(v, t, *push);
@@ -305,16 +305,10 @@ class Grid {
     const float* b = ws_.boxes.data() + 6 * size_t(t);
     return a[0] <= b[3] && b[0] <= a[3] && a[1] <= b[4] && b[1] <= a[4] && a[2] <= b[5] && b[2] <= a[5];
   }
-  bool current_boxes_meet(uint32_t s, uint32_t t) const {
-    glm::vec3 a0, a1, b0, b1;
-    box(s, 0.0f, a0, a1);
-    box(t, 0.0f, b0, b1);
-    return a0.x <= b1.x && b0.x <= a1.x && a0.y <= b1.y && b0.y <= a1.y && a0.z <= b1.z && b0.z <= a1.z;
-  }
-  void box(uint32_t t, float pad, glm::vec3& lo, glm::vec3& hi) const {
+  void box(uint32_t t, glm::vec3& lo, glm::vec3& hi) const {
     const uint32_t* q = mesh_.triangles.data() + 3 * size_t(t);
-    lo = glm::min(x_[q[0]], glm::min(x_[q[1]], x_[q[2]])) - glm::vec3(pad);
-    hi = glm::max(x_[q[0]], glm::max(x_[q[1]], x_[q[2]])) + glm::vec3(pad);
+    lo = glm::min(x_[q[0]], glm::min(x_[q[1]], x_[q[2]]));
+    hi = glm::max(x_[q[0]], glm::max(x_[q[1]], x_[q[2]]));
   }
   glm::vec3 stored_lo(uint32_t t) const { return glm::vec3(ws_.boxes[6 * size_t(t)], ws_.boxes[6 * size_t(t) + 1], ws_.boxes[6 * size_t(t) + 2]); }
   glm::vec3 stored_hi(uint32_t t) const { return glm::vec3(ws_.boxes[6 * size_t(t) + 3], ws_.boxes[6 * size_t(t) + 4], ws_.boxes[6 * size_t(t) + 5]); }
