@@ -20,11 +20,21 @@
 
 namespace skelform::test {
 
-// A GLB of a capsule along z (radius 0.25, z in [-0.75, 0.75]) with authored normals and
-// tangents, skinned to a root joint at z = -0.5 and a child joint at z = 0 (weights blend
-// over z in [-0.2, 0.2]), plus a primitive without normals or tangents: a sphere at z = 1.1
-// on the child joint. Two joints, two primitives, one skin: the smallest case with a bend.
-inline std::string capsule_glb() {
+// The shape of capsule_glb()'s capsule: make_capsule(radius, length, 24, rings, 6) along z,
+// the root joint at z = root_z, the child joint at z = 0, the child's weight a smoothstep
+// over z in [-blend/2, blend/2]; with `sphere`, a second primitive (below).
+struct CapsuleShape {
+  double radius = 0.25, length = 1.0, root_z = -0.5, blend = 0.4;
+  int rings = 8;
+  bool sphere = true;
+};
+
+// A GLB of a capsule along z (by default radius 0.25, z in [-0.75, 0.75]) with authored
+// normals and tangents, skinned to a root joint at z = -0.5 and a child joint at z = 0
+// (weights blend over z in [-0.2, 0.2]), plus a primitive without normals or tangents: a
+// sphere at z = 1.1 on the child joint. Two joints, two primitives, one skin: the smallest
+// case with a bend.
+inline std::string capsule_glb(const CapsuleShape& shape = {}) {
   using nlohmann::json;
   bake::GlbBuilder glb;
   glb.document = json::parse(R"({
@@ -34,11 +44,13 @@ inline std::string capsule_glb() {
               {"name": "root", "translation": [0, 0, -0.5], "children": [2]},
               {"name": "tip", "translation": [0, 0, 0.5]}],
     "bufferViews": [], "accessors": []})");
+  glb.document["nodes"][1]["translation"] = {0.0, 0.0, shape.root_z};
+  glb.document["nodes"][2]["translation"] = {0.0, 0.0, -shape.root_z};
   json primitives = json::array();
-  const bake::TriangleMesh capsule = bake::make_capsule(0.25, 1.0, 24, 8, 6);
+  const bake::TriangleMesh capsule = bake::make_capsule(shape.radius, shape.length, 24, shape.rings, 6);
   bake::TriangleMesh sphere = bake::make_icosphere(0.15, 2);
   for (auto& p : sphere.positions) p += bake::Vec3(0, 0, 1.1);
-  for (int part = 0; part < 2; ++part) {
+  for (int part = 0; part < (shape.sphere ? 2 : 1); ++part) {
     const bake::TriangleMesh& mesh = part == 0 ? capsule : sphere;
     const size_t n = mesh.positions.size();
     std::vector<float> positions, normals, tangents, weights;
@@ -59,7 +71,8 @@ inline std::string capsule_glb() {
       if (glm::length(around) < 1e-3f) around = glm::vec3(1, 0, 0) - normal.x * normal;
       around = glm::normalize(around);
       tangents.insert(tangents.end(), {around.x, around.y, around.z, 1.0f});
-      const float s = std::clamp((p.z + 0.2f) / 0.4f, 0.0f, 1.0f);
+      const float half = float(shape.blend / 2);
+      const float s = std::clamp((p.z + half) / (2.0f * half), 0.0f, 1.0f);
       const float child = part == 0 ? s * s * (3.0f - 2.0f * s) : 1.0f;
       joints.insert(joints.end(), {0, 1, 0, 0});
       weights.insert(weights.end(), {1.0f - child, child, 0.0f, 0.0f});
@@ -85,7 +98,7 @@ inline std::string capsule_glb() {
   glb.document["meshes"] = json::array({{{"name", "capsule"}, {"primitives", primitives}}});
   // Inverse bind matrices: the inverses of the joints' world transforms at bind.
   std::vector<float> inverse_bind;
-  for (const glm::mat4& m : {glm::translate(glm::mat4(1.0f), glm::vec3(0, 0, 0.5f)), glm::mat4(1.0f)})
+  for (const glm::mat4& m : {glm::translate(glm::mat4(1.0f), glm::vec3(0, 0, float(-shape.root_z))), glm::mat4(1.0f)})
     inverse_bind.insert(inverse_bind.end(), glm::value_ptr(m), glm::value_ptr(m) + 16);
   const int ibm = glb.add_floats(inverse_bind, "MAT4", 16, 0, false);
   glb.document["skins"] = json::array({{{"joints", {1, 2}}, {"inverseBindMatrices", ibm}, {"skeleton", 1}}});

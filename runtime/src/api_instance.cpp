@@ -24,7 +24,9 @@ sf_instance::sf_instance(const sf_asset& owner, const Deformable& d)
       previous_control(CallbackAllocator<glm::vec3>(owner.allocator)),
       step_normals_a(CallbackAllocator<glm::vec3>(owner.allocator)),
       step_normals_b(CallbackAllocator<glm::vec3>(owner.allocator)),
-      rest_normal_offset(CallbackAllocator<glm::vec3>(owner.allocator)), fairing(owner.allocator),
+      rest_normal_offset(CallbackAllocator<glm::vec3>(owner.allocator)),
+      arc_poses(CallbackAllocator<ArcPose>(owner.allocator)), arc_radius(CallbackAllocator<float>(owner.allocator)),
+      fairing(owner.allocator),
       contact_mesh(owner.allocator), contact(owner.allocator),
       fairing_frames(CallbackAllocator<glm::mat3>(owner.allocator)),
       fairing_offset(CallbackAllocator<glm::vec3>(owner.allocator)),
@@ -55,6 +57,9 @@ sf_instance::sf_instance(const sf_asset& owner, const Deformable& d)
   step_normals_b.resize(control_count);
   rest_normal_offset.resize(control_count);
   rest_normal_offsets(d, rest_normal_offset.data());
+  arc_poses.resize(d.arc_joints.size());
+  arc_radius.resize(control_count);
+  radius = d.medial_radius.data();
   fairing = make_fairing_workspace(d.fairing_topology, kMaxIntersectionGrid, owner.allocator);
   fairing_frames.resize(control_count);
   fairing_offset.assign(control_count, glm::vec3(0.0f));
@@ -128,7 +133,7 @@ sf_result evaluate(sf_instance& instance, const sf_eval_options& options) {
   const Deformable& d = *instance.deformable;
   if (options.method > SF_METHOD_DQS)
     return fail(&instance, SF_ERROR_INVALID_ARGUMENT, "sf_instance_evaluate: unknown method %u", options.method);
-  if (options.skeleton_skinning > SF_SKELETON_DQS)
+  if (options.skeleton_skinning > SF_SKELETON_LBS)
     return fail(&instance, SF_ERROR_INVALID_ARGUMENT, "sf_instance_evaluate: unknown skeleton_skinning %u",
                 options.skeleton_skinning);
   if (options.reconstruction > SF_RECONSTRUCTION_PAPER)
@@ -168,16 +173,24 @@ sf_result evaluate(sf_instance& instance, const sf_eval_options& options) {
                    with_normals, out);
   } else {
     // 1. S → S'.
-    if (instance.driver == Driver::skin)
+    instance.radius = d.medial_radius.data();
+    if (instance.driver == Driver::skin && options.skeleton_skinning == SF_SKELETON_ARCS) {
+      pose_joint_arcs(d, instance.joints.affine.data(), instance.arc_poses.data());
+      drive_skeleton_arcs(d, instance.joints, instance.arc_poses.data(), instance.skeletal.data(),
+                          instance.normal_matrices.data(), instance.arc_radius.data());
+      instance.radius = instance.arc_radius.data();
+    } else if (instance.driver == Driver::skin) {
       drive_skeleton_skin(d, instance.joints,
                           options.skeleton_skinning == SF_SKELETON_DQS ? Blend::dual_quaternion : Blend::linear,
                           instance.skeletal.data(), instance.normal_matrices.data());
-    else
+    } else {
       drive_skeleton_handles(d, instance.handles, instance.skeletal.data());
+    }
     // 2. S' → M. Carried normals: the skin's per-vertex transform turns the rest normals; the
     // handle driver has none and takes them from the surface its skeletal motion predicts.
     if (options.reconstruction == SF_RECONSTRUCTION_CARRIED && instance.driver == Driver::skin) {
-      reconstruct_carried(d, instance.skeletal.data(), instance.normal_matrices.data(), instance.control.data());
+      reconstruct_carried(d, instance.skeletal.data(), instance.normal_matrices.data(), instance.radius,
+                          instance.control.data());
     } else if (options.reconstruction == SF_RECONSTRUCTION_CARRIED) {
       reconstruct_predicted(d, instance.rest_normal_offset.data(), instance.skeletal.data(),
                             instance.step_normals_a.data(), instance.step_normals_b.data(), instance.control.data());

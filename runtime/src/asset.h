@@ -4,6 +4,7 @@
 #pragma once
 
 #include "fair.h"
+#include "joint_arcs.h"
 #include "memory.h"
 #include "skelform/skelform.h"
 
@@ -48,6 +49,7 @@ struct Deformable {
         binding_displacement(CallbackAllocator<float>(a)), binding_residual(CallbackAllocator<glm::vec2>(a)),
         binding_corners(CallbackAllocator<uint32_t>(a)), rest_normal_coords(CallbackAllocator<glm::vec3>(a)),
         rest_tangent_coords(CallbackAllocator<glm::vec3>(a)), handle_control_vertex(CallbackAllocator<uint32_t>(a)),
+        arc_joints(CallbackAllocator<ArcJoint>(a)), arc_vertices(CallbackAllocator<ArcVertex>(a)),
         fairing_topology(a), fairing_rest(a) {}
 
   int32_t mesh = -1;
@@ -128,6 +130,11 @@ struct Deformable {
   // largest barycentric of its refined triangle, then that refined vertex's heaviest stencil
   // entry.
   Array<uint32_t> handle_control_vertex;
+
+  // Limb joints bent along arcs (joint_arcs.h, SF_SKELETON_ARCS), derived at load time from
+  // the glTF skin: the joints, and per control vertex its part (empty: none in this skin).
+  Array<ArcJoint> arc_joints;
+  Array<ArcVertex> arc_vertices;
 
   // Fairing (fair.h), derived at load time: the control mesh's connectivity and the flows'
   // rest values. `fairing_supported` is false for a zero-radius (flat) skeleton, where the

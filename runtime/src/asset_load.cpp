@@ -7,6 +7,7 @@
 
 #include "dss_frame.h"
 #include "extension_layout.h"
+#include "joint_arcs.h"
 #include "refine.h"
 #include "skin_blend.h"
 
@@ -537,6 +538,7 @@ void load_deformable(const tinygltf::Model& model, const tinygltf::Value& json, 
                      deformable.control_weights);
   }
   compute_missing_normals(deformable);
+  build_joint_arcs(model, deformable);
 }
 
 // Renumbers the refined vertices in the order the dense vertices first name them as corners

@@ -34,6 +34,49 @@ void drive_skeleton_skin(const Deformable& d, const JointTransforms& joints, Ble
   }
 }
 
+void drive_skeleton_arcs(const Deformable& d, const JointTransforms& joints, const ArcPose* poses,
+                         glm::vec3* skeletal_out, glm::mat3* normal_matrices, float* radius_out) {
+  drive_skeleton_skin(d, joints, Blend::linear, skeletal_out, normal_matrices);
+  const uint32_t influences = d.influences;
+  if (d.arc_vertices.empty() || influences == 0) {
+    for (uint32_t v = 0; v < d.control_vertex_count; ++v) radius_out[v] = d.medial_radius[v];
+    return;
+  }
+  const uint16_t* joint_index = d.control_joints.data();
+  const float* weight = d.control_weights.data();
+  for (uint32_t v = 0; v < d.control_vertex_count; ++v) {
+    const ArcVertex& part = d.arc_vertices[v];
+    radius_out[v] = d.medial_radius[v];
+    if (part.joint == kNoArc) continue;  // the linear blend above
+    const ArcJoint& joint = d.arc_joints[part.joint];
+    const ArcPose& pose = poses[part.joint];
+    if (!(pose.weight > 0.0f)) continue;  // a mild bend: the linear blend above, bit for bit
+    const ArcMap map = arc_map(joint, pose, part.axial);
+    // The pair's share: β·(w_P + w_C)·A_P ∘ (x ↦ k·R·x + t), as a row-major 3x4, plus
+    // (1 − β) of its linear blend, plus the other influences.
+    const float* a = pose.parent.m;
+    const float arc = pose.weight * part.share;
+    float blended[12];
+    for (int r = 0; r < 3; ++r) {
+      for (int c = 0; c < 3; ++c)
+        blended[4 * r + c] = arc * map.scale *
+                             (a[4 * r] * map.rotation[c][0] + a[4 * r + 1] * map.rotation[c][1] + a[4 * r + 2] * map.rotation[c][2]);
+      blended[4 * r + 3] = arc * (a[4 * r] * map.translation.x + a[4 * r + 1] * map.translation.y +
+                                  a[4 * r + 2] * map.translation.z + a[4 * r + 3]);
+    }
+    const size_t first = size_t(v) * influences;
+    for (uint32_t k = 0; k < influences; ++k) {
+      const uint16_t j = joint_index[first + k];
+      const float w = (j == joint.parent || j == joint.child) ? (1.0f - pose.weight) * weight[first + k] : weight[first + k];
+      const float* m = joints.affine[j].m;
+      for (int c = 0; c < 12; ++c) blended[c] += w * m[c];
+    }
+    skeletal_out[v] = transform_point(blended, d.skeletal_positions[v]);
+    normal_matrices[v] = normal_matrix(blended);
+    radius_out[v] = d.medial_radius[v] * (1.0f + arc * (map.scale - 1.0f));
+  }
+}
+
 void drive_skeleton_handles(const Deformable& d, HandleState& handles, glm::vec3* skeletal_out) {
   // The displacement a handle asks for is that of the ORIGINAL vertex the caller picked; the
   // skeletal vertex under it moves by the same amount (the binding carries the surface along).

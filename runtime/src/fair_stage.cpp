@@ -88,7 +88,7 @@ void fair_stage(sf_instance& instance, const FairStageOptions& options) {
     instance.fairing.search_phase = 0;
     std::fill(instance.fairing.hull_case.begin(), instance.fairing.hull_case.end(), kHullCaseUnknown);
   }
-  const FairingSchedule run = run_fairing_schedule(topo, skeletal, d.medial_radius.data(), x, n, params, warm,
+  const FairingSchedule run = run_fairing_schedule(topo, skeletal, instance.radius, x, n, params, warm,
                                                    instance.fairing_gain, instance.fairing, &d.fairing_rest, frames);
   instance.fairing_gain = run.gain;  // a held pose continues from the annealed steps
   instance.last_fairing_iterations = run.iterations;

@@ -65,12 +65,18 @@ enum class Blend : uint8_t { linear, dual_quaternion };
 // its rest normal (inverse transpose of the blended linear part, up to a positive factor).
 void drive_skeleton_skin(const Deformable& d, const JointTransforms& joints, Blend blend, glm::vec3* skeletal_out,
                          glm::mat3* normal_matrices);
+// SF_SKELETON_ARCS (joint_arcs.h): as the linear skin driver, except that the share of an arc
+// joint's pair in a vertex's skin moves it by the arc (poses from pose_joint_arcs); also
+// writes each vertex's medial radius scaled by the arc's bulge to `radius_out`.
+void drive_skeleton_arcs(const Deformable& d, const JointTransforms& joints, const ArcPose* poses,
+                         glm::vec3* skeletal_out, glm::mat3* normal_matrices, float* radius_out);
 // Handle driver: S' = S + the smooth displacement field of the current targets (handles.h).
 void drive_skeleton_handles(const Deformable& d, HandleState& handles, glm::vec3* skeletal_out);
 
-// reconstruct.cpp. Carried normals, one step: M_i = S'_i + d_i·normalize(K_i·N_i).
+// reconstruct.cpp. Carried normals, one step: M_i = S'_i + d_i·normalize(K_i·N_i), with d_i
+// from `radius` (the asset's medial radius, or the arcs' bulged one).
 void reconstruct_carried(const Deformable& d, const glm::vec3* skeletal, const glm::mat3* normal_matrices,
-                         glm::vec3* control_out);
+                         const float* radius, glm::vec3* control_out);
 // Per control vertex N_rest − N_area(M_rest): what the homotopy adds to its recomputed
 // reconstruct.cpp. Handle driver, carried mode: normals of the predicted surface
 // M_rest + (S' − S) (with the rest offsets), one step. `predicted` and `normals` are scratch.
@@ -168,6 +174,12 @@ struct sf_instance {
   skelform::runtime::Array<glm::vec3> step_normals_a;
   skelform::runtime::Array<glm::vec3> step_normals_b;
   skelform::runtime::Array<glm::vec3> rest_normal_offset;  // rest_normal_offsets()
+  // SF_SKELETON_ARCS: this evaluation's pose of each arc joint (joint_arcs.h) and medial radius
+  // of each skeletal vertex (d scaled by the arc's bulge). `radius` is what stages 2 and 3
+  // read: arc_radius.data() after an arcs evaluation, else the asset's medial_radius.
+  skelform::runtime::Array<skelform::runtime::ArcPose> arc_poses;
+  skelform::runtime::Array<float> arc_radius;
+  const float* radius = nullptr;
   bool has_previous = false;
 
   // Fairing (fair_stage.cpp): workspace, this evaluation's local frames of M, and the last

@@ -45,11 +45,11 @@ void paper_normals(const Deformable& d, const glm::vec3* positions, const glm::v
 }  // namespace
 
 void reconstruct_carried(const Deformable& d, const glm::vec3* skeletal, const glm::mat3* normal_matrices,
-                         glm::vec3* control_out) {
+                         const float* radius, glm::vec3* control_out) {
   for (uint32_t v = 0; v < d.control_vertex_count; ++v) {
     const glm::vec3 rest_normal = d.control_normals[v];
     const glm::vec3 normal = normalize_or(normal_matrices[v] * rest_normal, rest_normal);
-    control_out[v] = skeletal[v] + d.medial_radius[v] * normal + rest_residual(d, v);
+    control_out[v] = skeletal[v] + radius[v] * normal + rest_residual(d, v);
   }
 }
 

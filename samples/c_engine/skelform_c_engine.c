@@ -462,7 +462,7 @@ int main(int argc, char** argv) {
       sf_eval_options options;
       float box[6];
       clock_t start;
-      memset(&options, 0, sizeof options); /* zero = defaults: skelform method, LBS-driven skeleton */
+      memset(&options, 0, sizeof options); /* zero = defaults: skelform method, limb arcs, fairing */
       if (frame == 0) options.flags = SF_EVAL_FROM_REST; /* no previous evaluation to continue from */
       compute_joint_matrices(&skin, bind_local, BEND_AMPLITUDE, seconds, ch->phase, ch->speed, ch->joint_world, ch->skinning);
       if (!check(sf_instance_set_joint_matrices(ch->instance, ch->skinning, info.joint_count, 0),

@@ -33,14 +33,16 @@ struct Variant {
   sf_eval_options options;
 };
 
-// Every way to evaluate: skelform with both reconstructions and both skeleton skinnings, the
+// Every way to evaluate: skelform with both reconstructions and the three skeleton skinnings, the
 // two baselines; `flags` added by the caller.
 std::vector<Variant> variants() {
   std::vector<Variant> v;
   sf_eval_options o{};
-  v.push_back({"skelform carried/LBS", o});
+  v.push_back({"skelform carried/arcs", o});
   o.skeleton_skinning = SF_SKELETON_DQS;
   v.push_back({"skelform carried/DQS", o});
+  o.skeleton_skinning = SF_SKELETON_LBS;
+  v.push_back({"skelform carried/LBS", o});
   o = {};
   o.reconstruction = SF_RECONSTRUCTION_PAPER;
   v.push_back({"skelform paper L=3", o});

@@ -65,7 +65,7 @@ extern "C" {
 /* Version of this header. sf_version() returns the version of the linked library; a
  * program may compare the two to detect a header/library mismatch. */
 #define SF_VERSION_MAJOR 0
-#define SF_VERSION_MINOR 3
+#define SF_VERSION_MINOR 4
 #define SF_VERSION_PATCH 0
 /* One integer, comparable: major * 10000 + minor * 100 + patch. */
 #define SF_VERSION (SF_VERSION_MAJOR * 10000 + SF_VERSION_MINOR * 100 + SF_VERSION_PATCH)
@@ -244,10 +244,22 @@ typedef enum sf_method {
   SF_METHOD_FORCE_U32 = 0x7fffffff
 } sf_method;
 
-/* How the skin moves the skeletal mesh (SF_METHOD_SKELFORM with the skin driver). */
+/* How the skin moves the skeletal mesh (SF_METHOD_SKELFORM with the skin driver). Since 0.4
+ * the default bends limb joints along arcs; 0.3's default, plain linear blending, is
+ * SF_SKELETON_LBS (a new value). */
 typedef enum sf_skeleton_skinning {
-  SF_SKELETON_LBS = 0, /* default */
-  SF_SKELETON_DQS = 1,
+  /* Default. Linear blending, except at the skin's limb joints (a parent-child joint with a
+   * limb-like bone on each side) once they bend or twist past where linear blending folds the
+   * reconstruction (at most 45 degrees; fully from 75): there the skeletal mesh within about
+   * four limb radii of the joint follows a circular arc of 1.5 limb radii, both bones beyond
+   * it rigid and its cross sections scaled up to keep the volume, and the twist spreads over
+   * that zone as a rotation. The reconstruction then cannot fold at deep bends, where linear
+   * blending turns the skeleton more tightly than the limb's radius (docs/runtime-api.md
+   * "Skeleton skinning"). Derived at load time from the glTF skin's joint hierarchy and
+   * inverse bind matrices. A mild pose gives the same output as SF_SKELETON_LBS, bit for bit. */
+  SF_SKELETON_ARCS = 0,
+  SF_SKELETON_DQS = 1, /* dual quaternion blending of every skeletal vertex */
+  SF_SKELETON_LBS = 2, /* linear blending of every skeletal vertex (0.3's default) */
   SF_SKELETON_SKINNING_FORCE_U32 = 0x7fffffff
 } sf_skeleton_skinning;
 
@@ -278,7 +290,7 @@ typedef enum sf_reconstruction {
  * only appended in later versions. */
 typedef struct sf_eval_options {
   uint32_t method;              /* sf_method; 0 = SF_METHOD_SKELFORM */
-  uint32_t skeleton_skinning;   /* sf_skeleton_skinning; 0 = LBS */
+  uint32_t skeleton_skinning;   /* sf_skeleton_skinning; 0 = SF_SKELETON_ARCS */
   uint32_t reconstruction;      /* sf_reconstruction; 0 = carried normals */
   uint32_t homotopy_steps;      /* L of eq. (2); 0 = 3 (the paper's choice) */
   uint32_t flags;               /* SF_EVAL_* bits */

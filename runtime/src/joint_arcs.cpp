@@ -1,0 +1,365 @@
+// Limb joints bent along arcs (joint_arcs.h).
+#include "joint_arcs.h"
+
+#include "asset.h"
+#include "gltf_read.h"
+
+#include <tiny_gltf.h>
+
+#include <glm/geometric.hpp>
+#include <glm/gtc/quaternion.hpp>
+#include <glm/mat3x3.hpp>
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <string>
+#include <vector>
+
+namespace skelform::runtime {
+namespace {
+
+constexpr float kPi = 3.14159265358979f;
+constexpr float kPinch = 0.95f;          // the bulged limb's radius stays within this part of the arc's
+constexpr float kFit = 0.9f;
+// The arc replaces the linear blend from 0.75 to 1.25 of the joint's fold bend (the bend or
+// twist where linear blending starts to fold the reconstruction), the fold bend taken at
+// most 60 degrees: past about 75 degrees two limb segments press into each other on the
+// inner side whatever the blend's width (measured on the procedural character's squat: with
+// the fold bend alone, which puts its wide-blended knees at 160-240 degrees, the arcs never
+// came in and the squat kept 4,275 intersecting pairs; capped at 60 degrees, 737; at 90, 659
+// but Fox's run 413 instead of 266; at 40, two of Fox's run frames above LBS).
+constexpr float kArcOnset = 0.75f, kArcFull = 1.25f;
+constexpr float kLargestFoldBend = kPi / 3.0f;             // the fillet's tangent points stay within this part of the zone
+constexpr double kBlendedWeight = 0.1;   // both of a pair above this: a vertex of the joint's blend
+constexpr double kLongestRestBend = 0.5; // cos 60°: straighter joints only
+constexpr double kSharedBone = 0.45;     // a zone's cap on a bone with a joint at each end
+constexpr double kEndBone = 0.9;         // ... on a bone that ends in the skin's first or last joint
+
+// Any unit vector perpendicular to unit `u`.
+glm::vec3 perpendicular(const glm::vec3& u) {
+  const glm::vec3 a = std::fabs(u.x) < 0.7f ? glm::vec3(1, 0, 0) : glm::vec3(0, 1, 0);
+  return glm::normalize(a - glm::dot(a, u) * u);
+}
+
+// Rotation by `angle` about unit `axis`, as a matrix.
+glm::mat3 rotation_about(const glm::vec3& axis, float angle) { return glm::mat3_cast(glm::angleAxis(angle, axis)); }
+
+// The rotation of a 3x3 linear part by Gram-Schmidt on its columns (prepare_joint's rule):
+// exact for rigid and uniformly scaled joints, a proper rotation for any other, never NaN.
+glm::mat3 rotation_part(const glm::mat3& linear) {
+  glm::vec3 x = linear[0], y = linear[1];
+  const float lx = glm::length(x);
+  x = lx > 1e-20f ? x / lx : glm::vec3(1, 0, 0);
+  y -= glm::dot(y, x) * x;
+  const float ly = glm::length(y);
+  y = ly > 1e-20f ? y / ly : perpendicular(x);
+  return glm::mat3(x, y, glm::cross(x, y));
+}
+
+glm::mat4 to_mat4(const JointAffine& a) {
+  glm::mat4 m(1.0f);
+  for (int r = 0; r < 3; ++r)
+    for (int c = 0; c < 4; ++c) m[c][r] = a.m[4 * r + c];
+  return m;
+}
+
+}  // namespace
+
+ArcPose make_arc_pose(const ArcJoint& joint, const glm::mat4& parent, const glm::mat4& child) {
+  ArcPose pose;
+  for (int r = 0; r < 3; ++r)
+    for (int c = 0; c < 4; ++c) pose.parent.m[4 * r + c] = parent[c][r];
+  // The child relative to the parent, in bind space: X = A_P⁻¹·A_C (identity at bind).
+  const glm::mat4 relative = glm::inverse(parent) * child;
+  const glm::mat3 rotation = rotation_part(glm::mat3(relative));
+  const glm::vec3 u = joint.axis;
+  const glm::vec3 moved = glm::vec3(relative * glm::vec4(joint.center, 1.0f));
+  pose.translation = std::isfinite(moved.x + moved.y + moved.z) ? moved - joint.center : glm::vec3(0.0f);
+  // Swing: the shortest rotation taking u to R·u, by θ about e; twist: the rest, about u.
+  const glm::vec3 turned = rotation * u;
+  const glm::vec3 cross = glm::cross(u, turned);
+  const float sine = glm::length(cross);
+  const float bend = std::atan2(sine, glm::dot(u, turned));
+  pose.bend = std::isfinite(bend) ? bend : 0.0f;
+  pose.bend_axis = sine > 1e-12f && std::isfinite(sine) ? cross / sine : perpendicular(u);
+  pose.inward = glm::cross(pose.bend_axis, u);
+  const glm::mat3 swing = rotation_about(pose.bend_axis, pose.bend);
+  pose.bent_axis = swing * u;
+  const glm::vec3 a = perpendicular(u);
+  const glm::vec3 b = glm::transpose(swing) * (rotation * a);
+  const float twist = std::atan2(glm::dot(u, glm::cross(a, b)), glm::dot(a, b));
+  pose.twist = std::isfinite(twist) ? twist : 0.0f;
+  // The fillet of the corner at J: radius ρ, tangent to both lines at distance t from J,
+  // shrunk where it would not fit in the zone.
+  const float zone = joint.zone;
+  // (θ/2 kept below π/2: float π/2 lies above it, where tan turns negative.)
+  const float tan_half = std::tan(std::min(0.5f * pose.bend, 1.5707f));
+  pose.arc_radius = tan_half > 0.0f ? std::min(joint.radius, kFit * zone / tan_half) : joint.radius;
+  pose.tangent = pose.arc_radius * tan_half;
+  pose.path = 2.0f * (zone - pose.tangent) + pose.arc_radius * pose.bend;
+  // Bulge k(z) = 1 + q·cos²(πz/2F): mean k² = 1 + q + 3q²/8 = 2F / path.
+  const float gain = pose.path > 0.0f ? std::max(2.0f * zone / pose.path - 1.0f, 0.0f) : 0.0f;
+  const float fold = std::min(joint.fold_bend, kLargestFoldBend);
+  const float onset = kArcOnset * fold, full = kArcFull * fold;
+  const float angle = std::max(pose.bend, std::fabs(pose.twist));
+  const float ramp = std::clamp((angle - onset) / std::max(full - onset, 1e-6f), 0.0f, 1.0f);
+  pose.weight = ramp * ramp * (3.0f - 2.0f * ramp);
+  pose.bulge = joint.section * (std::sqrt(1.0f + 1.5f * gain) - 1.0f) / 0.75f;
+  // ... but the bulged limb stays inside the arc's radius (else its inner side would pinch
+  // through the arc's centre and fold): past that the zone gives up volume instead.
+  if (joint.limb > 0.0f) pose.bulge = std::min(pose.bulge, std::max(kPinch * pose.arc_radius / joint.limb - 1.0f, 0.0f));
+  return pose;
+}
+
+ArcMap arc_map(const ArcJoint& joint, const ArcPose& pose, float axial) {
+  const glm::vec3 J = joint.center, u = joint.axis;
+  const float F = joint.zone, z = axial;
+  glm::vec3 centre;
+  float phi;
+  if (z <= -F) {
+    centre = J + z * u;
+    phi = 0.0f;
+  } else if (z >= F) {
+    centre = J + z * pose.bent_axis;
+    phi = pose.bend;
+  } else {
+    const float s = (z + F) * pose.path / (2.0f * F);  // arc length along the bent centre line
+    const float straight = F - pose.tangent;
+    const float rho = pose.arc_radius;
+    if (s <= straight) {
+      centre = J + (s - F) * u;
+      phi = 0.0f;
+    } else if (s < straight + rho * pose.bend) {
+      phi = (s - straight) / rho;
+      centre = J - pose.tangent * u + rho * pose.inward - rho * std::cos(phi) * pose.inward + rho * std::sin(phi) * u;
+    } else {
+      centre = J + (pose.tangent + s - straight - rho * pose.bend) * pose.bent_axis;
+      phi = pose.bend;
+    }
+  }
+  ArcMap map;
+  if (z > -F && z < F) {
+    const float c = std::cos(0.5f * kPi * z / F);
+    map.scale = 1.0f + pose.bulge * c * c;
+  }
+  // The twist (and any translation in the joint) spreads over the whole zone: over the skin's
+  // blend alone it shears the surface (150 degrees within one radius folds it, measured on the
+  // bent capsule).
+  const float t = std::clamp((z + F) / (2.0f * F), 0.0f, 1.0f);
+  const float twist = t * t * (3.0f - 2.0f * t);
+  map.rotation = rotation_about(pose.bend_axis, phi) * rotation_about(u, twist * pose.twist);
+  // x ↦ centre + k·R·(x − J − z·u) + twist·translation.
+  map.translation = centre - map.scale * (map.rotation * (J + z * u)) + twist * pose.translation;
+  return map;
+}
+
+void build_joint_arcs(const tinygltf::Model& model, Deformable& d) {
+  d.arc_joints.clear();
+  d.arc_vertices.clear();
+  if (d.skin < 0 || d.joint_count == 0 || d.influences == 0) return;
+  const tinygltf::Skin& skin = model.skins[static_cast<size_t>(d.skin)];
+  const size_t joints = skin.joints.size();
+  // Heads at bind: the origins of the inverse bind matrices' inverses (identity if absent).
+  std::vector<glm::dvec3> head(joints, glm::dvec3(0.0));
+  if (skin.inverseBindMatrices >= 0) {
+    const std::vector<glm::dmat4> inverse_bind =
+        gltf::read_mat4(model, skin.inverseBindMatrices, "skin " + std::to_string(d.skin) + " inverseBindMatrices");
+    if (inverse_bind.size() < joints) return;  // the loader's skin checks report it; no arcs
+    for (size_t j = 0; j < joints; ++j) head[j] = glm::dvec3(glm::inverse(inverse_bind[j])[3]);
+  }
+  for (const glm::dvec3& h : head)
+    if (!std::isfinite(h.x + h.y + h.z)) return;
+  // Joint hierarchy within the skin.
+  std::vector<int> joint_of_node(model.nodes.size(), -1), parent_node(model.nodes.size(), -1);
+  for (size_t j = 0; j < joints; ++j)
+    if (skin.joints[j] >= 0 && static_cast<size_t>(skin.joints[j]) < model.nodes.size())
+      joint_of_node[static_cast<size_t>(skin.joints[j])] = static_cast<int>(j);
+  for (size_t n = 0; n < model.nodes.size(); ++n)
+    for (int c : model.nodes[n].children)
+      if (c >= 0 && static_cast<size_t>(c) < model.nodes.size()) parent_node[static_cast<size_t>(c)] = static_cast<int>(n);
+  std::vector<int> parent(joints, -1);
+  std::vector<std::vector<int>> children(joints);
+  for (size_t j = 0; j < joints; ++j) {
+    const int node = skin.joints[j];
+    if (node < 0 || static_cast<size_t>(node) >= model.nodes.size()) continue;
+    const int p = parent_node[static_cast<size_t>(node)];
+    if (p >= 0 && joint_of_node[static_cast<size_t>(p)] >= 0) {
+      parent[j] = joint_of_node[static_cast<size_t>(p)];
+      children[static_cast<size_t>(parent[j])].push_back(static_cast<int>(j));
+    }
+  }
+  // Control skin per vertex: weight of a joint, and the heaviest joint.
+  const uint32_t count = d.control_vertex_count, influences = d.influences;
+  auto weight_of = [&](uint32_t v, size_t j) {
+    double w = 0.0;
+    for (uint32_t k = 0; k < influences; ++k)
+      if (d.control_joints[size_t(v) * influences + k] == j) w += double(d.control_weights[size_t(v) * influences + k]);
+    return w;
+  };
+  std::vector<int> heaviest(count, -1);
+  for (uint32_t v = 0; v < count; ++v) {
+    float best = 0.0f;
+    for (uint32_t k = 0; k < influences; ++k)
+      if (d.control_weights[size_t(v) * influences + k] > best) {
+        best = d.control_weights[size_t(v) * influences + k];
+        heaviest[v] = d.control_joints[size_t(v) * influences + k];
+      }
+  }
+  // The skeletal vertices a joint moves most: the far ends of root and leaf bones.
+  auto reach = [&](size_t j, const glm::dvec3& from, const glm::dvec3& direction) {
+    double far = 0.0;
+    for (uint32_t v = 0; v < count; ++v)
+      if (heaviest[v] == static_cast<int>(j))
+        far = std::max(far, glm::dot(glm::dvec3(d.skeletal_positions[v]) - from, direction));
+    return far;
+  };
+
+  struct Candidate {
+    ArcJoint joint;
+    double lateral;  // limb radius bound: vertices farther from the axis are not the limb's
+  };
+  std::vector<Candidate> arcs;
+  for (size_t c = 0; c < joints; ++c) {
+    const int p = parent[c];
+    if (p < 0 || children[c].size() > 1) continue;
+    const glm::dvec3 J = head[c];
+    const double parent_length = glm::length(J - head[static_cast<size_t>(p)]);
+    if (!(parent_length > 0.0)) continue;
+    const glm::dvec3 parent_axis = (J - head[static_cast<size_t>(p)]) / parent_length;
+    glm::dvec3 child_axis;
+    double child_cap;
+    if (children[c].size() == 1) {
+      const double length = glm::length(head[static_cast<size_t>(children[c][0])] - J);
+      if (!(length > 0.0)) continue;
+      child_axis = (head[static_cast<size_t>(children[c][0])] - J) / length;
+      child_cap = kSharedBone * length;
+    } else {
+      // A leaf: its axis towards the centroid of the skeletal vertices it moves most.
+      glm::dvec3 sum(0.0);
+      size_t n = 0;
+      for (uint32_t v = 0; v < count; ++v)
+        if (heaviest[v] == static_cast<int>(c)) {
+          sum += glm::dvec3(d.skeletal_positions[v]);
+          ++n;
+        }
+      if (n == 0) continue;
+      const glm::dvec3 to = sum / double(n) - J;
+      const double length = glm::length(to);
+      if (!(length > 0.0)) continue;
+      child_axis = to / length;
+      child_cap = kEndBone * reach(c, J, child_axis);
+    }
+    if (glm::dot(parent_axis, child_axis) < kLongestRestBend) continue;
+    const glm::dvec3 u = glm::normalize(parent_axis + child_axis);
+    const double parent_cap = parent[static_cast<size_t>(p)] >= 0
+                                  ? kSharedBone * parent_length
+                                  : kEndBone * std::max(parent_length, reach(static_cast<size_t>(p), J, -parent_axis));
+    // The limb's radius at the joint: over its blended skeletal vertices, distance from the
+    // axis plus medial radius.
+    double radius_sum = 0.0;
+    size_t blended = 0;
+    for (uint32_t v = 0; v < count; ++v) {
+      const double wp = weight_of(v, static_cast<size_t>(p)), wc = weight_of(v, c);
+      if (wp < kBlendedWeight || wc < kBlendedWeight) continue;
+      const glm::dvec3 x = glm::dvec3(d.skeletal_positions[v]) - J;
+      radius_sum += glm::length(x - glm::dot(x, u) * u) + double(d.medial_radius[v]);
+      ++blended;
+    }
+    if (blended == 0) continue;
+    const double limb = radius_sum / double(blended);
+    // The dense surface around the control mesh: mean distance from the axis of the blended
+    // dense vertices over that of the blended control vertices.
+    auto section_radius = [&](const glm::vec3* positions, const uint16_t* joint_index, const float* weight, uint32_t n) {
+      double sum = 0.0;
+      size_t used = 0;
+      for (uint32_t v = 0; v < n; ++v) {
+        double wp = 0.0, wc = 0.0;
+        for (uint32_t k = 0; k < influences; ++k) {
+          const size_t slot = size_t(v) * influences + k;
+          if (joint_index[slot] == p) wp += double(weight[slot]);
+          if (joint_index[slot] == c) wc += double(weight[slot]);
+        }
+        if (wp < kBlendedWeight || wc < kBlendedWeight) continue;
+        const glm::dvec3 x = glm::dvec3(positions[v]) - J;
+        sum += glm::length(x - glm::dot(x, u) * u);
+        ++used;
+      }
+      return used ? sum / double(used) : 0.0;
+    };
+    const double control_section = section_radius(d.control_positions.data(), d.control_joints.data(),
+                                                  d.control_weights.data(), count);
+    const double dense_section = section_radius(d.rest_positions.data(), d.dense_joints.data(), d.dense_weights.data(),
+                                                d.vertex_count);
+    // Where linear blending folds: the inner side at the limb's radius r runs backwards once
+    // r·θ·max dw/dz > 1 (fair_test.cpp, the bent capsule), w the child's share of the pair.
+    // max dw/dz from the axial extent of the vertices with w in (0.02, 0.98): 0.83 of a
+    // smoothstep's width b, whose steepest slope is 1.5 / b. A coarse mesh samples less of
+    // the blend, which only brings the arcs in earlier; a blend no vertex samples (a step
+    // between the bones) folds at once.
+    double z_low = std::numeric_limits<double>::max(), z_high = -z_low;
+    for (uint32_t v = 0; v < count; ++v) {
+      const double wp = weight_of(v, static_cast<size_t>(p)), wc = weight_of(v, c);
+      if (!(wp + wc > 0.0)) continue;
+      const double share = wc / (wp + wc);
+      if (share <= 0.02 || share >= 0.98) continue;
+      const double z = glm::dot(glm::dvec3(d.skeletal_positions[v]) - J, u);
+      z_low = std::min(z_low, z);
+      z_high = std::max(z_high, z);
+    }
+    const double fold_bend = z_high > z_low ? (z_high - z_low) / (1.25 * limb) : 0.0;
+    const double section = control_section > 0.0 && dense_section > 0.0 ? dense_section / control_section : 1.0;
+    const double zone = std::min({double(kArcZone) * limb, parent_cap, child_cap});
+    if (!(limb > 0.0) || zone < limb) continue;  // no room for an arc
+    Candidate arc;
+    arc.joint.parent = static_cast<uint16_t>(p);
+    arc.joint.child = static_cast<uint16_t>(c);
+    arc.joint.center = glm::vec3(J);
+    arc.joint.axis = glm::vec3(u);
+    arc.joint.zone = float(zone);
+    arc.joint.radius = float(kArcRadius * limb);
+    arc.joint.limb = float(limb);
+    arc.joint.fold_bend = float(fold_bend);
+    arc.joint.section = float(std::clamp(section, 1.0, 4.0));
+    arc.lateral = 2.0 * limb;
+    arcs.push_back(arc);
+  }
+  if (arcs.empty()) return;
+
+  // Each control vertex takes the arc joint nearest to it (relative to the zone) among those
+  // whose pair has part of its skin and whose limb it lies in. Outside the zone only vertices
+  // blended between the two joints take it (elsewhere the map is the vertex's rigid bone).
+  std::vector<ArcVertex> parts(count);
+  bool any = false;
+  for (uint32_t v = 0; v < count; ++v) {
+    double best = std::numeric_limits<double>::max();
+    for (size_t a = 0; a < arcs.size(); ++a) {
+      const ArcJoint& joint = arcs[a].joint;
+      const double wp = weight_of(v, joint.parent), wc = weight_of(v, joint.child);
+      if (!(wp + wc > 0.0)) continue;
+      const glm::dvec3 x = glm::dvec3(d.skeletal_positions[v]) - glm::dvec3(joint.center);
+      const double z = glm::dot(x, glm::dvec3(joint.axis));
+      if (glm::length(x - z * glm::dvec3(joint.axis)) > arcs[a].lateral) continue;
+      const double relative = std::fabs(z) / double(joint.zone);
+      if (relative >= 1.0 && !(wp > 0.0 && wc > 0.0)) continue;
+      if (relative >= best) continue;
+      best = relative;
+      parts[v].joint = static_cast<uint32_t>(a);
+      parts[v].axial = float(z);
+      parts[v].share = float(wp + wc);
+      any = true;
+    }
+  }
+  if (!any) return;
+  for (const Candidate& arc : arcs) d.arc_joints.push_back(arc.joint);
+  d.arc_vertices.assign(parts.begin(), parts.end());
+}
+
+void pose_joint_arcs(const Deformable& d, const JointAffine* joints, ArcPose* poses) {
+  for (size_t a = 0; a < d.arc_joints.size(); ++a) {
+    const ArcJoint& joint = d.arc_joints[a];
+    poses[a] = make_arc_pose(joint, to_mat4(joints[joint.parent]), to_mat4(joints[joint.child]));
+  }
+}
+
+}  // namespace skelform::runtime
