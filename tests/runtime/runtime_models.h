@@ -194,6 +194,27 @@ inline const RuntimeModel& capsule_model() {
   return *slot;
 }
 
+// The fairing issue's capsule (tests/runtime/fair_test.cpp): radius 0.2, z in [-1, 1], the
+// root joint at its end, the child joint at z = 0, weights blending over z in [-0.1, 0.1].
+inline CapsuleShape bent_capsule_shape() {
+  CapsuleShape shape;
+  shape.radius = 0.2;
+  shape.length = 1.6;
+  shape.rings = 40;
+  shape.root_z = -1.0;
+  shape.blend = 0.2;
+  shape.sphere = false;
+  return shape;
+}
+inline const RuntimeModel& bent_capsule_model() {
+  std::lock_guard<std::mutex> lock(detail::cache_mutex());
+  auto& slot = detail::cache()["bent capsule"];
+  if (!slot)
+    slot = detail::bake_and_load("bent_capsule.glb", capsule_glb(bent_capsule_shape()), ".glb",
+                                 scratch_dir("runtime_models").string());
+  return *slot;
+}
+
 // The skinned sample models of ../shared/data, by folder name.
 inline const std::vector<std::string>& sample_names() {
   static const std::vector<std::string> names = {"CesiumMan/CesiumMan.glb", "Fox/Fox.glb", "RiggedFigure/RiggedFigure.glb",
