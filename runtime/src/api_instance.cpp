@@ -205,11 +205,11 @@ sf_result evaluate(sf_instance& instance, const sf_eval_options& options) {
                              instance.has_fairing_offset ? instance.fairing_start.data()
                                                          : instance.previous_control.data(),
                              nullptr,
-                             instance.skeletal.data(), steps, instance.step_normals_a.data(),
+                             instance.skeletal.data(), instance.radius, steps, instance.step_normals_a.data(),
                              instance.step_normals_b.data(), instance.control.data());
       else
         reconstruct_homotopy(d, offset, d.skeletal_positions.data(), d.control_positions.data(),
-                             d.control_normals.data(), instance.skeletal.data(), steps,
+                             d.control_normals.data(), instance.skeletal.data(), instance.radius, steps,
                              instance.step_normals_a.data(), instance.step_normals_b.data(), instance.control.data());
     }
     // 3. Fairing (flows (4), (5)), warm-started from the previous evaluation.

@@ -85,11 +85,13 @@ void reconstruct_predicted(const Deformable& d, const glm::vec3* rest_offset, co
 // normals so that they equal the bake's at rest (reconstruct.cpp says why). Once per instance.
 void rest_normal_offsets(const Deformable& d, glm::vec3* offsets);
 // The paper's homotopy (2)/(3) from (start_skeletal, start_control, start_normals) to S_L =
-// `skeletal`: L steps, normals recomputed from each step. `start_normals` may be null (they
-// are then computed from start_control). `normals_a`/`normals_b` are scratch (control count).
+// `skeletal`: L steps, normals recomputed from each step, d from `radius` (that of S_L) at
+// every step. `start_normals` may be null (they are then computed from start_control).
+// `normals_a`/`normals_b` are scratch (control count).
 void reconstruct_homotopy(const Deformable& d, const glm::vec3* rest_offset, const glm::vec3* start_skeletal,
                           const glm::vec3* start_control, const glm::vec3* start_normals, const glm::vec3* skeletal,
-                          uint32_t steps, glm::vec3* normals_a, glm::vec3* normals_b, glm::vec3* control_out);
+                          const float* radius, uint32_t steps, glm::vec3* normals_a, glm::vec3* normals_b,
+                          glm::vec3* control_out);
 
 // fair_stage.cpp. Stage 3: flows (4) and (5) (fair.h) on instance.control (M from the
 // reconstruction, with S' in instance.skeletal), in place. `from_rest` discards the warm start

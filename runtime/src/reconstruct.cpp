@@ -77,7 +77,8 @@ void rest_normal_offsets(const Deformable& d, glm::vec3* offsets) {
 
 void reconstruct_homotopy(const Deformable& d, const glm::vec3* rest_offset, const glm::vec3* start_skeletal,
                           const glm::vec3* start_control, const glm::vec3* start_normals, const glm::vec3* skeletal,
-                          uint32_t steps, glm::vec3* normals_a, glm::vec3* normals_b, glm::vec3* control_out) {
+                          const float* radius, uint32_t steps, glm::vec3* normals_a, glm::vec3* normals_b,
+                          glm::vec3* control_out) {
   const uint32_t count = d.control_vertex_count;
   // A homotopy from S_0 to S_L = S_0 is constant: M_0 already is the reconstruction of S_0.
   // Not only a shortcut: eq. (3) iterated on a still skeleton is the map M ← S + d·N(M),
@@ -105,7 +106,7 @@ void reconstruct_homotopy(const Deformable& d, const glm::vec3* rest_offset, con
     const float t = float(j) * inverse_steps;  // j/L of eq. (2)
     for (uint32_t v = 0; v < count; ++v) {
       const glm::vec3 skeletal_j = start_skeletal[v] + t * (skeletal[v] - start_skeletal[v]);  // eq. (2)
-      control_out[v] = skeletal_j + d.medial_radius[v] * previous_normals[v] + rest_residual(d, v);  // eq. (3)
+      control_out[v] = skeletal_j + radius[v] * previous_normals[v] + rest_residual(d, v);  // eq. (3)
     }
     if (j < steps) {
       paper_normals(d, control_out, rest_offset, previous_normals, next_normals);  // N_j from M_j
