@@ -20,8 +20,8 @@ namespace skelform::runtime {
 namespace {
 
 constexpr float kPi = 3.14159265358979f;
-constexpr float kPinch = 0.95f;          // the bulged limb's radius stays within this part of the arc's
-constexpr float kFit = 0.9f;
+constexpr float kPinch = 0.95f;  // the bulged limb's radius stays within this part of the arc's
+constexpr float kFit = 0.9f;     // the fillet's tangent points stay within this part of the zone
 // The arc replaces the linear blend from 0.75 to 1.25 of the joint's fold bend (the bend or
 // twist where linear blending starts to fold the reconstruction), the fold bend taken at
 // most 60 degrees: past about 75 degrees two limb segments press into each other on the
@@ -30,7 +30,7 @@ constexpr float kFit = 0.9f;
 // came in and the squat kept 4,275 intersecting pairs; capped at 60 degrees, 737; at 90, 659
 // but Fox's run 413 instead of 266; at 40, two of Fox's run frames above LBS).
 constexpr float kArcOnset = 0.75f, kArcFull = 1.25f;
-constexpr float kLargestFoldBend = kPi / 3.0f;             // the fillet's tangent points stay within this part of the zone
+constexpr float kLargestFoldBend = kPi / 3.0f;
 constexpr double kBlendedWeight = 0.1;   // both of a pair above this: a vertex of the joint's blend
 constexpr double kLongestRestBend = 0.5; // cos 60°: straighter joints only
 constexpr double kSharedBone = 0.45;     // a zone's cap on a bone with a joint at each end
@@ -44,18 +44,6 @@ glm::vec3 perpendicular(const glm::vec3& u) {
 
 // Rotation by `angle` about unit `axis`, as a matrix.
 glm::mat3 rotation_about(const glm::vec3& axis, float angle) { return glm::mat3_cast(glm::angleAxis(angle, axis)); }
-
-// The rotation of a 3x3 linear part by Gram-Schmidt on its columns (prepare_joint's rule):
-// exact for rigid and uniformly scaled joints, a proper rotation for any other, never NaN.
-glm::mat3 rotation_part(const glm::mat3& linear) {
-  glm::vec3 x = linear[0], y = linear[1];
-  const float lx = glm::length(x);
-  x = lx > 1e-20f ? x / lx : glm::vec3(1, 0, 0);
-  y -= glm::dot(y, x) * x;
-  const float ly = glm::length(y);
-  y = ly > 1e-20f ? y / ly : perpendicular(x);
-  return glm::mat3(x, y, glm::cross(x, y));
-}
 
 glm::mat4 to_mat4(const JointAffine& a) {
   glm::mat4 m(1.0f);
@@ -72,7 +60,7 @@ ArcPose make_arc_pose(const ArcJoint& joint, const glm::mat4& parent, const glm:
     for (int c = 0; c < 4; ++c) pose.parent.m[4 * r + c] = parent[c][r];
   // The child relative to the parent, in bind space: X = A_P⁻¹·A_C (identity at bind).
   const glm::mat4 relative = glm::inverse(parent) * child;
-  const glm::mat3 rotation = rotation_part(glm::mat3(relative));
+  const glm::mat3 rotation = rotation_part(glm::mat3(relative));  // skin_blend.h
   const glm::vec3 u = joint.axis;
   const glm::vec3 moved = glm::vec3(relative * glm::vec4(joint.center, 1.0f));
   pose.translation = std::isfinite(moved.x + moved.y + moved.z) ? moved - joint.center : glm::vec3(0.0f);

@@ -37,18 +37,10 @@ struct JointDualQuaternion {
   float data[20];
 };
 
-// Both representations of one column-major glTF joint matrix.
-inline void prepare_joint(const glm::mat4& matrix, JointAffine& affine, JointDualQuaternion& dq) {
-  for (int r = 0; r < 3; ++r) {
-    affine.m[4 * r + 0] = matrix[0][r];
-    affine.m[4 * r + 1] = matrix[1][r];
-    affine.m[4 * r + 2] = matrix[2][r];
-    affine.m[4 * r + 3] = matrix[3][r];
-  }
-  // Rotation by Gram-Schmidt on the linear part's columns (exact for rigid and uniformly
-  // scaled joints); a mirrored joint keeps a proper rotation and its reflection goes into
-  // the stretch. Degenerate columns fall back to the identity axes, so no NaN.
-  const glm::mat3 linear(matrix);
+// The rotation of a 3x3 linear part, by Gram-Schmidt on its columns: exact for rigid and
+// uniformly scaled joints; a mirrored one keeps a proper rotation (its reflection is left in
+// the rest). Degenerate columns fall back to the identity axes, so no NaN.
+inline glm::mat3 rotation_part(const glm::mat3& linear) {
   glm::vec3 x = linear[0], y = linear[1];
   const float lx = std::sqrt(glm::dot(x, x));
   x = lx > 1e-20f ? x / lx : glm::vec3(1, 0, 0);
@@ -60,8 +52,20 @@ inline void prepare_joint(const glm::mat4& matrix, JointAffine& affine, JointDua
     const glm::vec3 a = std::fabs(x.x) < 0.9f ? glm::vec3(1, 0, 0) : glm::vec3(0, 1, 0);
     y = glm::normalize(a - glm::dot(a, x) * x);
   }
-  const glm::vec3 z = glm::cross(x, y);
-  const glm::mat3 rotation(x, y, z);
+  return glm::mat3(x, y, glm::cross(x, y));
+}
+
+// Both representations of one column-major glTF joint matrix.
+inline void prepare_joint(const glm::mat4& matrix, JointAffine& affine, JointDualQuaternion& dq) {
+  for (int r = 0; r < 3; ++r) {
+    affine.m[4 * r + 0] = matrix[0][r];
+    affine.m[4 * r + 1] = matrix[1][r];
+    affine.m[4 * r + 2] = matrix[2][r];
+    affine.m[4 * r + 3] = matrix[3][r];
+  }
+  // The rigid part's rotation; a mirrored joint's reflection goes into the stretch.
+  const glm::mat3 linear(matrix);
+  const glm::mat3 rotation = rotation_part(linear);
   const glm::mat3 stretch = glm::transpose(rotation) * linear;
   for (int r = 0; r < 3; ++r)
     for (int c = 0; c < 3; ++c) dq.data[JointDualQuaternion::kStretch + 3 * r + c] = stretch[c][r];
