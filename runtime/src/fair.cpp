@@ -26,6 +26,9 @@
 #include <cmath>
 #include <limits>
 
+#if defined(_MSC_VER) && !defined(__clang__)
+#include <intrin.h>
+#endif
 #if defined(__SSE2__)
 #include <emmintrin.h>
 #endif
@@ -270,6 +273,19 @@ void fold_step(const FairingTopology& topo, const glm::vec3* skeletal, const flo
 
 // ---- flow (5) ----------------------------------------------------------------------------
 
+constexpr int kMaxMaskedGrid = 64;  // cells per axis that FairingWorkspace::row_occupancy covers
+
+// Index of the lowest set bit of a non-zero mask.
+inline int ctz64(uint64_t mask) {
+#if defined(_MSC_VER) && !defined(__clang__)
+  unsigned long index;
+  _BitScanForward64(&index, mask);
+  return static_cast<int>(index);
+#else
+  return __builtin_ctzll(mask);
+#endif
+}
+
 struct Grid {
   glm::vec3 origin{0.0f};
   glm::vec3 cell{1.0f};      // cell size per axis
@@ -326,7 +342,16 @@ Grid build_grid(const FairingTopology& topo, const glm::vec3* skeletal, const fl
     ws.vertex_cell[v] = static_cast<uint32_t>(c);
     ++ws.cell_offsets[c + 1];
   }
-  for (size_t c = 0; c < cell_count; ++c) ws.cell_offsets[c + 1] += ws.cell_offsets[c];
+  // Counts to offsets, row by row (z, y), noting which cells of each row hold balls.
+  const bool masked = size <= kMaxMaskedGrid;
+  for (size_t row = 0, c = 0; row < size_t(size) * size; ++row) {
+    uint64_t occupied = 0;
+    for (int column = 0; column < size; ++column, ++c) {
+      if (masked) occupied |= uint64_t{ws.cell_offsets[c + 1] != 0} << column;
+      ws.cell_offsets[c + 1] += ws.cell_offsets[c];
+    }
+    if (masked) ws.row_occupancy[row] = occupied;
+  }
   // Counting sort, stable: each cell lists its vertices in ascending order (determinism of
   // ties in the minimum below).
   for (uint32_t v = 0; v < vertex_count; ++v) {
@@ -351,6 +376,12 @@ struct FieldValue {
   uint32_t minimiser = std::numeric_limits<uint32_t>::max();  // S* (skeletal vertex index)
 };
 
+// The field's order: the smaller g, and of equal g the smaller ball index. A strict total order
+// on (g, s), so the minimum does not depend on the order the balls are visited in.
+inline bool precedes(float g, uint32_t s, const FieldValue& best) {
+  return g < best.f || (g == best.f && s < best.minimiser);
+}
+
 // min of g(x, S) = |x − S|² − d_S² over the skeletal vertices of one cell other than
 // `exclude`, into `best`, from the balls' cell-ordered copy (build_grid: S and d² side by side).
 // g is (dx² + dy²) + dz² − d² in either path, the same minimum and the same ties.
@@ -366,12 +397,12 @@ void cell_minimum(const glm::vec3& x, const FairingWorkspace& ws, size_t cell, u
     const __m128 dz = _mm_sub_ps(pz, _mm_loadu_ps(ws.cell_z.data() + k));
     const __m128 g = lane4::sub(lane4::dot(dx, dy, dz, dx, dy, dz), lane4::load(ws.cell_rr.data() + k));
     const uint32_t lanes = std::min(4u, end - k);
-    if ((_mm_movemask_ps(_mm_cmplt_ps(g, _mm_set1_ps(best.f))) & ((1 << lanes) - 1)) == 0) continue;
+    if ((_mm_movemask_ps(_mm_cmple_ps(g, _mm_set1_ps(best.f))) & ((1 << lanes) - 1)) == 0) continue;
     alignas(16) float values[4];
     _mm_store_ps(values, g);
     for (uint32_t lane = 0; lane < lanes; ++lane) {
       const uint32_t s = ws.cell_vertices[k + lane];
-      if (s != exclude && values[lane] < best.f) best = {values[lane], s};
+      if (s != exclude && precedes(values[lane], s, best)) best = {values[lane], s};
     }
   }
 #else
@@ -380,7 +411,7 @@ void cell_minimum(const glm::vec3& x, const FairingWorkspace& ws, size_t cell, u
     if (s == exclude) continue;
     const float dx = x.x - ws.cell_x[k], dy = x.y - ws.cell_y[k], dz = x.z - ws.cell_z[k];
     const float g = dx * dx + dy * dy + dz * dz - ws.cell_rr[k];
-    if (g < best.f) best = {g, s};
+    if (precedes(g, s, best)) best = {g, s};
   }
 #endif
 }
@@ -400,15 +431,36 @@ FieldValue field_at(const Grid& grid, const glm::vec3& x, const FairingWorkspace
   // own cell's minimum crosses 0 (a float rounding away at rest), so the neighbourhood's
   // minimum is always taken: the same f wherever the own cell's value is negative and
   // another cell's is lower, continuous otherwise.
-  // Shells of Chebyshev radius r around the own cell, nearest first: a shell whose every point
-  // is at least (r − 1) cells away cannot beat `best` once (r − 1)²·cell² − (max d)² ≥ best,
-  // which ends the search early without changing the minimum over the neighbourhood.
   const int last_ring = std::max(std::max(grid.ring[0], grid.ring[1]), grid.ring[2]);
-  for (int r = 1; r <= n; ++r) {
+  int first_shell = 1;
+  if (n <= kMaxMaskedGrid) {
+    // The (widened) 3×3×3 neighbourhood at once, row by row, visiting only the cells that hold
+    // balls (build_grid's row_occupancy): the neighbourhood spans up to (2 ring + 1)³ cells,
+    // most of them empty (measured on CesiumMan_loop2, ring 3: ~0.8 µs a search visiting all
+    // 343 cells, 9 % of an evaluation; ~0.6 µs visiting the occupied ones). The minimum does not
+    // depend on the order (precedes), so it is the shell-by-shell search's minimum.
+    const int x0 = std::max(0, cx - last_ring), x1 = std::min(n - 1, cx + last_ring);
+    const uint64_t span = (x1 - x0 + 1 >= 64 ? ~uint64_t{0} : (uint64_t{1} << (x1 - x0 + 1)) - 1) << x0;
+    for (int z = std::max(0, cz - last_ring); z <= std::min(n - 1, cz + last_ring); ++z)
+      for (int y = std::max(0, cy - last_ring); y <= std::min(n - 1, cy + last_ring); ++y) {
+        uint64_t cells = ws.row_occupancy[size_t(z) * n + y] & span;
+        if (z == cz && y == cy) cells &= ~(uint64_t{1} << cx);  // the own cell: done above
+        for (; cells != 0; cells &= cells - 1) {
+          const int xx = ctz64(cells);
+          cell_minimum(x, ws, (size_t(z) * n + y) * n + xx, exclude, best);
+        }
+      }
+    first_shell = last_ring + 1;
+  }
+  // Shells of Chebyshev radius r around the own cell, nearest first (beyond the neighbourhood
+  // when it held no ball, or all of it on a grid too large for the row masks): a shell whose
+  // every point is at least (r − 1) cells away cannot reach `best` once (r − 1)²·cell² −
+  // (max d)² > best, which ends the search early without changing the minimum.
+  for (int r = first_shell; r <= n; ++r) {
     const bool searched = best.minimiser != std::numeric_limits<uint32_t>::max();
     if (r > last_ring && searched) break;  // the (widened) 3×3×3 neighbourhood is done
     const float gap = float(r - 1) * grid.cell.x;
-    if (searched && gap * gap - grid.max_radius * grid.max_radius >= best.f) break;
+    if (searched && gap * gap - grid.max_radius * grid.max_radius > best.f) break;
     for (int z = std::max(0, cz - r); z <= std::min(n - 1, cz + r); ++z)
       for (int y = std::max(0, cy - r); y <= std::min(n - 1, cy + r); ++y)
         for (int xx = std::max(0, cx - r); xx <= std::min(n - 1, cx + r); ++xx) {
@@ -1109,6 +1161,7 @@ FairingWorkspace make_fairing_workspace(const FairingTopology& topology, uint32_
   ws.tangential_weight.assign(n, 0.0f);
   ws.force_direction.assign(n, glm::vec3(0.0f));
   ws.cell_offsets.assign(cells + 1, 0);
+  ws.row_occupancy.assign(size_t(ws.grid_size) * ws.grid_size, 0);
   ws.cell_vertices.assign(n, 0);
   ws.vertex_cell.assign(n, 0);
   ws.cell_x.assign(n + 3, 0.0f);
