@@ -45,6 +45,14 @@ glm::vec3 perpendicular(const glm::vec3& u) {
 // Rotation by `angle` about unit `axis`, as a matrix.
 glm::mat3 rotation_about(const glm::vec3& axis, float angle) { return glm::mat3_cast(glm::angleAxis(angle, axis)); }
 
+// Joint j's total weight in vertex v's skin (`influences` slots per vertex).
+double skin_weight(const uint16_t* joint_index, const float* weight, uint32_t influences, uint32_t v, size_t j) {
+  double w = 0.0;
+  for (uint32_t k = 0; k < influences; ++k)
+    if (joint_index[size_t(v) * influences + k] == j) w += double(weight[size_t(v) * influences + k]);
+  return w;
+}
+
 glm::mat4 to_mat4(const JointAffine& a) {
   glm::mat4 m(1.0f);
   for (int r = 0; r < 3; ++r)
@@ -180,10 +188,7 @@ void build_joint_arcs(const tinygltf::Model& model, Deformable& d) {
   // Control skin per vertex: weight of a joint, and the heaviest joint.
   const uint32_t count = d.control_vertex_count, influences = d.influences;
   auto weight_of = [&](uint32_t v, size_t j) {
-    double w = 0.0;
-    for (uint32_t k = 0; k < influences; ++k)
-      if (d.control_joints[size_t(v) * influences + k] == j) w += double(d.control_weights[size_t(v) * influences + k]);
-    return w;
+    return skin_weight(d.control_joints.data(), d.control_weights.data(), influences, v, j);
   };
   std::vector<int> heaviest(count, -1);
   for (uint32_t v = 0; v < count; ++v) {
@@ -262,12 +267,8 @@ void build_joint_arcs(const tinygltf::Model& model, Deformable& d) {
       double sum = 0.0;
       size_t used = 0;
       for (uint32_t v = 0; v < n; ++v) {
-        double wp = 0.0, wc = 0.0;
-        for (uint32_t k = 0; k < influences; ++k) {
-          const size_t slot = size_t(v) * influences + k;
-          if (joint_index[slot] == p) wp += double(weight[slot]);
-          if (joint_index[slot] == c) wc += double(weight[slot]);
-        }
+        const double wp = skin_weight(joint_index, weight, influences, v, static_cast<size_t>(p));
+        const double wc = skin_weight(joint_index, weight, influences, v, c);
         if (wp < kBlendedWeight || wc < kBlendedWeight) continue;
         const glm::dvec3 x = glm::dvec3(positions[v]) - J;
         sum += glm::length(x - glm::dot(x, u) * u);
