@@ -31,6 +31,7 @@
 // sqrt without errno.
 #include "instance.h"
 #include "refine.h"
+#include "vec3_sse.h"
 
 #include <cfloat>
 #include <cmath>
@@ -72,7 +73,35 @@ template <bool kNormals, bool kTangents>
 void gather(const Deformable& d, const glm::vec3* refined, const glm::vec3* refined_normal, uint32_t first,
             uint32_t count, Block& b) {
   const uint32_t* corner = d.binding_corners.data() + 3 * size_t{first};
-  for (uint32_t i = 0; i < count; ++i, corner += 3) {
+  uint32_t i = 0;
+#if defined(__SSE2__)
+  // Four vertices at a time: each corner read as one vector (vec3_sse.h), the interpolation
+  // done on x, y and z together (lane by lane the scalar loop's operations in its order, so its
+  // bits), and the four results transposed into the block's rows.
+  const sse::Vec3Reader read(refined, d.refined_vertex_count), read_normal(refined_normal, d.refined_vertex_count);
+  for (; i + 4 <= count; i += 4) {
+    __m128 q[4], m[4], e[4];
+    for (uint32_t j = 0; j < 4; ++j, corner += 3) {
+      const glm::vec2 bary = d.binding_barycentric[first + i + j];
+      const float b1 = bary.x, b2 = bary.y, b0 = 1.0f - b1 - b2;
+      const __m128 w0 = _mm_set1_ps(b0), w1 = _mm_set1_ps(b1), w2 = _mm_set1_ps(b2);
+      const __m128 p0 = read(corner[0]), p1 = read(corner[1]), p2 = read(corner[2]);
+      const __m128 n0 = read_normal(corner[0]), n1 = read_normal(corner[1]), n2 = read_normal(corner[2]);
+      q[j] = _mm_add_ps(_mm_add_ps(_mm_mul_ps(w0, p0), _mm_mul_ps(w1, p1)), _mm_mul_ps(w2, p2));
+      m[j] = _mm_add_ps(_mm_add_ps(_mm_mul_ps(w0, n0), _mm_mul_ps(w1, n1)), _mm_mul_ps(w2, n2));
+      e[j] = _mm_sub_ps(p1, p0);
+    }
+    _MM_TRANSPOSE4_PS(q[0], q[1], q[2], q[3]);
+    _MM_TRANSPOSE4_PS(m[0], m[1], m[2], m[3]);
+    _MM_TRANSPOSE4_PS(e[0], e[1], e[2], e[3]);
+    for (int k = 0; k < 3; ++k) {
+      _mm_storeu_ps(&b.q[k][i], q[k]);
+      _mm_storeu_ps(&b.m[k][i], m[k]);
+      _mm_storeu_ps(&b.e[k][i], e[k]);
+    }
+  }
+#endif
+  for (; i < count; ++i, corner += 3) {
     const uint32_t v = first + i;
     const glm::vec3 &p0 = refined[corner[0]], &p1 = refined[corner[1]], &p2 = refined[corner[2]];
     const glm::vec3 &n0 = refined_normal[corner[0]], &n1 = refined_normal[corner[1]], &n2 = refined_normal[corner[2]];
@@ -82,13 +111,24 @@ void gather(const Deformable& d, const glm::vec3* refined, const glm::vec3* refi
       b.m[k][i] = b0 * n0[k] + b1 * n1[k] + b2 * n2[k];
       b.e[k][i] = p1[k] - p0[k];
     }
-    b.h[i] = d.binding_displacement[v];
-    b.rt[i] = d.binding_residual[v].x;
-    b.rb[i] = d.binding_residual[v].y;
-    if (kNormals)
-      for (int k = 0; k < 3; ++k) b.cn[k][i] = d.rest_normal_coords[v][k];
-    if (kTangents)
-      for (int k = 0; k < 3; ++k) b.ct[k][i] = d.rest_tangent_coords[v][k];
+  }
+  // The per-vertex data, contiguous: plain copies the compiler vectorises.
+  const float* displacement = d.binding_displacement.data() + first;
+  const glm::vec2* residual = d.binding_residual.data() + first;
+  for (i = 0; i < count; ++i) {
+    b.h[i] = displacement[i];
+    b.rt[i] = residual[i].x;
+    b.rb[i] = residual[i].y;
+  }
+  if (kNormals) {
+    const glm::vec3* c = d.rest_normal_coords.data() + first;
+    for (i = 0; i < count; ++i)
+      for (int k = 0; k < 3; ++k) b.cn[k][i] = c[i][k];
+  }
+  if (kTangents) {
+    const glm::vec3* c = d.rest_tangent_coords.data() + first;
+    for (i = 0; i < count; ++i)
+      for (int k = 0; k < 3; ++k) b.ct[k][i] = c[i][k];
   }
 }
 
@@ -130,6 +170,30 @@ void evaluate(uint32_t count, Block& b) {
   }
 }
 
+#if defined(__SSE2__)
+// Rows [k][i, i + 4) of a block's output into the four vectors out[0..3].
+inline void store_rows(const float (&rows)[3][kBlock], uint32_t i, glm::vec3* out) {
+  __m128 x = _mm_loadu_ps(&rows[0][i]), y = _mm_loadu_ps(&rows[1][i]), z = _mm_loadu_ps(&rows[2][i]),
+         w = _mm_setzero_ps();
+  _MM_TRANSPOSE4_PS(x, y, z, w);
+  sse::store3(out[0], x);
+  sse::store3(out[1], y);
+  sse::store3(out[2], z);
+  sse::store3(out[3], w);
+}
+
+// Rows [k][i, i + 4) of a block's tangents, each with the w of its rest tangent, into out[0..3].
+inline void store_tangents(const float (&rows)[3][kBlock], uint32_t i, const glm::vec4* rest, glm::vec4* out) {
+  __m128 x = _mm_loadu_ps(&rows[0][i]), y = _mm_loadu_ps(&rows[1][i]), z = _mm_loadu_ps(&rows[2][i]),
+         w = _mm_setr_ps(rest[0].w, rest[1].w, rest[2].w, rest[3].w);
+  _MM_TRANSPOSE4_PS(x, y, z, w);
+  _mm_storeu_ps(&out[0].x, x);
+  _mm_storeu_ps(&out[1].x, y);
+  _mm_storeu_ps(&out[2].x, z);
+  _mm_storeu_ps(&out[3].x, w);
+}
+#endif
+
 template <bool kNormals, bool kTangents>
 void displace_vertices(const Deformable& d, const glm::vec3* refined, const glm::vec3* refined_normal,
                        uint32_t first, uint32_t end, const DenseOutput& out) {
@@ -138,16 +202,28 @@ void displace_vertices(const Deformable& d, const glm::vec3* refined, const glm:
     const uint32_t count = end - start < kBlock ? end - start : kBlock;
     gather<kNormals, kTangents>(d, refined, refined_normal, start, count, b);
     evaluate<kNormals, kTangents>(count, b);
-    for (uint32_t i = 0; i < count; ++i) {
+    for (uint32_t i = 0; i < count;) {
       const uint32_t v = start + i;
-      if (!b.fast[i]) {
-        exact_vertex<kNormals, kTangents>(d, refined, refined_normal, v, out);
+#if defined(__SSE2__)
+      // Four vertices whose main branch held: their rows transposed back into vectors and
+      // stored 12 bytes each (vec3_sse.h), the same floats as the scalar stores below.
+      if (i + 4 <= count && (b.fast[i] & b.fast[i + 1] & b.fast[i + 2] & b.fast[i + 3])) {
+        store_rows(b.position, i, out.positions + v);
+        if (kNormals) store_rows(b.normal, i, out.normals + v);
+        if (kTangents) store_tangents(b.tangent, i, d.rest_tangents.data() + v, out.tangents + v);
+        i += 4;
         continue;
       }
-      out.positions[v] = glm::vec3(b.position[0][i], b.position[1][i], b.position[2][i]);
-      if (kNormals) out.normals[v] = glm::vec3(b.normal[0][i], b.normal[1][i], b.normal[2][i]);
-      if (kTangents)
-        out.tangents[v] = glm::vec4(b.tangent[0][i], b.tangent[1][i], b.tangent[2][i], d.rest_tangents[v].w);
+#endif
+      if (!b.fast[i]) {
+        exact_vertex<kNormals, kTangents>(d, refined, refined_normal, v, out);
+      } else {
+        out.positions[v] = glm::vec3(b.position[0][i], b.position[1][i], b.position[2][i]);
+        if (kNormals) out.normals[v] = glm::vec3(b.normal[0][i], b.normal[1][i], b.normal[2][i]);
+        if (kTangents)
+          out.tangents[v] = glm::vec4(b.tangent[0][i], b.tangent[1][i], b.tangent[2][i], d.rest_tangents[v].w);
+      }
+      ++i;
     }
   }
 }
