@@ -127,15 +127,16 @@ BakedDeformable bake_deformable(const InputMesh& group, const BakeOptions& optio
                         : choose_subdivision_level(control.mesh.triangles.size(), welded.mesh.triangles.size());
   SubdivisionStencils stencils = build_loop_stencils(control.mesh, level);
   baked.control_positions = to_float(control.mesh.positions);
+  baked.skeletal_positions = to_float(skeleton.skeletal_positions);
   const std::vector<glm::vec3> refined = apply_stencils(stencils, baked.control_positions);
-  const std::vector<glm::vec3> normals = refined_normals(stencils, baked.control_positions, control.mesh.triangles);
+  const std::vector<glm::vec3> normals =
+      refined_normals(stencils, baked.control_positions, control.mesh.triangles, &baked.skeletal_positions);
 
   stage("binding");
   DssBinding binding = bind_dense_vertices(refined, normals, stencils.refined_triangles, group.positions, diagonal);
 
   stage("skin weights");
   baked.control_normals = to_float(skeleton.normals);
-  baked.skeletal_positions = to_float(skeleton.skeletal_positions);
   baked.medial_radius.assign(skeleton.medial_radius.begin(), skeleton.medial_radius.end());
   for (const Triangle& t : control.mesh.triangles) baked.control_indices.insert(baked.control_indices.end(), t.begin(), t.end());
   if (baked.skin >= 0) {

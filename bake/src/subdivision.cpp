@@ -188,7 +188,12 @@ std::vector<glm::vec3> apply_stencils(const SubdivisionStencils& stencils, const
 }
 
 std::vector<glm::vec3> refined_normals(const SubdivisionStencils& stencils, const std::vector<glm::vec3>& control,
-                                       const std::vector<Triangle>& control_triangles) {
+                                       const std::vector<Triangle>& control_triangles,
+                                       const std::vector<glm::vec3>* skeletal) {
+  if (skeletal && skeletal->size() != control.size())
+    throw Error(ErrorKind::invalid_input, "refined_normals: " + std::to_string(skeletal->size()) +
+                                              " skeletal positions for " + std::to_string(control.size()) +
+                                              " control vertices");
   std::vector<uint32_t> indices;
   indices.reserve(3 * control_triangles.size());
   for (const Triangle& t : control_triangles)
@@ -200,6 +205,7 @@ std::vector<glm::vec3> refined_normals(const SubdivisionStencils& stencils, cons
     }
   std::vector<glm::vec3> sums(control.size(), glm::vec3(0.0f));
   dss::add_face_normals(control.data(), indices.data(), control_triangles.size(), sums.data());
+  if (skeletal) dss::medial_normal_sums(control.data(), skeletal->data(), control.size(), sums.data());
   std::vector<glm::vec3> normals = apply_stencils(stencils, sums);
   for (glm::vec3& n : normals) n = dss::normalise_or_zero(n);
   return normals;

@@ -224,8 +224,8 @@ sf_result evaluate(sf_instance& instance, const sf_eval_options& options) {
     fairing.from_rest = (options.flags & SF_EVAL_FROM_REST) != 0 || !instance.has_previous;
     fair_stage(instance, fairing);
     // 4. Refine and displace.
-    displace(d, instance.control.data(), instance.control_normal_sums.data(), instance.refined_positions.data(),
-             instance.refined_normals.data(), with_normals, out);
+    displace(d, instance.control.data(), instance.skeletal.data(), instance.control_normal_sums.data(),
+             instance.refined_positions.data(), instance.refined_normals.data(), with_normals, out);
     // 5. The contact pass on the dense output (contact.h), when the caller turned it on.
     if (instance.contacts_enabled)
       resolve_contacts(instance.contact_mesh, instance.dense_positions.data(), d.vertex_count, instance.contact);

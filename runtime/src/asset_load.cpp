@@ -629,8 +629,8 @@ void derive_rest_data(Deformable& deformable) {
   std::vector<glm::vec3> refined(deformable.refined_vertex_count);
   std::vector<glm::vec3> normals(deformable.refined_vertex_count);
   std::vector<glm::vec3> control_normal_sums(deformable.control_vertex_count);
-  refine_surface(deformable, deformable.control_positions.data(), control_normal_sums.data(), refined.data(),
-                 normals.data());
+  refine_surface(deformable, deformable.control_positions.data(), deformable.skeletal_positions.data(),
+                 control_normal_sums.data(), refined.data(), normals.data());
 
   deformable.binding_corners.resize(3 * size_t{deformable.vertex_count});
   for (uint32_t v = 0; v < deformable.vertex_count; ++v)

@@ -251,10 +251,10 @@ void primitive_face_normals(const Deformable& d, const PrimitiveRecord& primitiv
 
 }  // namespace
 
-void displace(const Deformable& d, const glm::vec3* control, glm::vec3* control_normal_sums,
+void displace(const Deformable& d, const glm::vec3* control, const glm::vec3* skeletal, glm::vec3* control_normal_sums,
               glm::vec3* refined_positions, glm::vec3* refined_normal_buffer, bool with_normals,
               const DenseOutput& out) {
-  refine_surface(d, control, control_normal_sums, refined_positions, refined_normal_buffer);
+  refine_surface(d, control, skeletal, control_normal_sums, refined_positions, refined_normal_buffer);
 
   for (const PrimitiveRecord& primitive : d.primitives) {
     const uint32_t first = primitive.first_vertex, end = primitive.first_vertex + primitive.vertex_count;

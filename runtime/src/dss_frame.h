@@ -55,6 +55,47 @@ inline glm::vec3 normalise_or_zero(const glm::vec3& v) {
   return length > 1e-30f ? v / length : glm::vec3(0.0f);
 }
 
+// Turns each control vertex's normal sum A[c] (add_face_normals) halfway onto its medial
+// direction P[c] − S[c], keeping the sum's length (the area weight the stencils interpolate
+// with): with a = A[c]/|A[c]| and m = (P[c] − S[c])/|P[c] − S[c]|,
+//   A[c] ← |A[c]| (a + m) / |a + m|
+// where |A[c]|, |P[c] − S[c]| and |a + m| are > 1e-30 and finite; elsewhere (a zero medial
+// radius, a flat deformable with S = M, a vanishing normal) A[c] is left as it is.
+// At rest P − S = d·N with N the area-weighted normal itself (the skeleton is built as
+// S = M − d·N), so a = m to float rounding and the field is the area-weighted one there. Away
+// from rest the two disagree, each wrong in its own way, and the dense vertices are displaced
+// along their bisector (docs/SKELFORM_skeletal_deformation.md "Stencil evaluation", version
+// 2.1):
+//  - a, the faired control mesh's own normal, swings where the flows tilt its triangles at a
+//    pressed contact (a running fox's leg against its chest), and the detail displaced along
+//    it swings into the other part;
+//  - m, the direction the reconstruction M = S + d·N rebuilt the vertex along, does not see
+//    that tilt, but it turns with the skeleton's blend rather than with the surface.
+// Measured (tests/runtime/fair_animation_test.cpp on the samples, and with SKELFORM_DATA_DIR
+// pointing at skelform-character's model and at the bench's CesiumMan subdivided twice;
+// intersecting pairs summed over the animation (Fox 'Run': / frames above linear blend
+// skinning; no other animation has one), and the closest volume comparison, Fox 'Survey''s
+// mean |volume change|, LBS 1.267 %):
+//                     CesiumMan  Fox Run   character squat  75K CesiumMan  Fox Survey volume
+//   a alone (2.0)     1,203      268 / 1   737              4,334          1.259 %
+//   m alone           1,073      236 / 0   405              4,014          1.275 %
+//   bisector          1,149      219 / 0   528              4,132          1.264 %
+// m alone leaves the fewest pairs but loses more volume than LBS on Fox 'Survey'; a alone
+// leaves a Fox 'Run' frame above LBS; the bisector meets both.
+inline void medial_normal_sums(const glm::vec3* positions, const glm::vec3* skeletal, size_t vertex_count,
+                               glm::vec3* sums) {
+  for (size_t c = 0; c < vertex_count; ++c) {
+    const glm::vec3 medial = positions[c] - skeletal[c];
+    const float medial_length = std::sqrt(glm::dot(medial, medial));
+    const float weight = std::sqrt(glm::dot(sums[c], sums[c]));
+    if (!(medial_length > 1e-30f) || !(weight > 1e-30f) || !std::isfinite(medial_length) || !std::isfinite(weight))
+      continue;
+    const glm::vec3 bisector = sums[c] * (1.0f / weight) + medial * (1.0f / medial_length);
+    const float bisector_length = std::sqrt(glm::dot(bisector, bisector));
+    if (bisector_length > 1e-30f) sums[c] = bisector * (weight / bisector_length);
+  }
+}
+
 // Unit area-weighted vertex normals of a triangle mesh (the control mesh's N(M) of the
 // paper's eq. (3), reconstruct.cpp).
 inline void vertex_normals(const glm::vec3* positions, size_t vertex_count, const uint32_t* indices,
@@ -64,9 +105,10 @@ inline void vertex_normals(const glm::vec3* positions, size_t vertex_count, cons
   for (size_t v = 0; v < vertex_count; ++v) out_normals[v] = normalise_or_zero(out_normals[v]);
 }
 
-// The refined mesh's vertex normals n0, n1, n2 above (extension version 2, docs/
+// The refined mesh's vertex normals n0, n1, n2 above (extension version 2.1, docs/
 // SKELFORM_skeletal_deformation.md "Stencil evaluation"): the control mesh's area-weighted
-// normal sums (add_face_normals over the control triangles) refined by the same stencils as
+// normal sums (add_face_normals over the control triangles), turned halfway onto the medial
+// directions (medial_normal_sums), refined by the same stencils as
 // the positions, each refined sum then normalised (normalise_or_zero). The stencil sums are
 // the positions' arithmetic (float, from zero, in stencil order), which the baker
 // (bake/src/subdivision.cpp refined_normals) and the runtime (runtime/src/refine.cpp) each

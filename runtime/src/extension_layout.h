@@ -17,8 +17,11 @@ inline constexpr char kExtensionName[] = "SKELFORM_skeletal_deformation";
 // Version 2: the refined mesh's vertex normals are the control mesh's normal sums refined by the
 // stencils (dss_frame.h), where version 1 took the refined triangles' normals. The bindings of
 // a version 1 asset belong to the other normal field, so a version 2 reader refuses it.
+// Version 2.1: each control normal sum is first turned halfway onto the medial direction M − S
+// (dss_frame.h medial_normal_sums). At rest the two rules give the same field to float
+// rounding (S = M − d·N with N the area-weighted normal), so 2.0 and 2.1 data are read alike.
 inline constexpr int kMajorVersion = 2;
-inline constexpr int kMinorVersion = 0;
+inline constexpr int kMinorVersion = 1;
 
 // glTF accessor component types used by the extension.
 enum class Component : int {

@@ -141,7 +141,7 @@ struct DenseOutput {
   glm::vec3* normals;
   glm::vec4* tangents;  // may be null when no primitive has tangents
 };
-void displace(const Deformable& d, const glm::vec3* control, glm::vec3* control_normal_sums,
+void displace(const Deformable& d, const glm::vec3* control, const glm::vec3* skeletal, glm::vec3* control_normal_sums,
               glm::vec3* refined_positions, glm::vec3* refined_normals, bool with_normals, const DenseOutput& out);
 
 // dense_skinning.cpp. The baselines on the original vertices (dense_joints/dense_weights).

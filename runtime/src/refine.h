@@ -32,8 +32,11 @@ namespace skelform::runtime {
 //    rows are stored (dss::normalise_or_zero's bits: zero where the sum vanishes).
 // The baker's bits (bake/src/subdivision.cpp apply_stencils, refined_normals). `refined` and
 // `refined_normals` hold refined_vertex_count entries; no two buffers may alias.
-void refine_surface(const Deformable& deformable, const glm::vec3* control, glm::vec3* control_normal_sums,
-                    glm::vec3* refined, glm::vec3* refined_normals);
+// With `skeletal` (control_vertex_count positions, S indexed like `control`), each control
+// normal sum is first turned onto the medial direction control − skeletal
+// (dss::medial_normal_sums: extension version 2.1); null leaves the area-weighted sums.
+void refine_surface(const Deformable& deformable, const glm::vec3* control, const glm::vec3* skeletal,
+                    glm::vec3* control_normal_sums, glm::vec3* refined, glm::vec3* refined_normals);
 
 // dss::add_face_normals, to the bit (SSE2 where the compiler targets it, refine_normals.cpp):
 // adds each triangle's (p1 - p0) × (p2 - p0) to `sums` at its three corners, in triangle order.

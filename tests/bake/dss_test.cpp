@@ -19,6 +19,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
+#include <limits>
 
 using namespace skelform::bake;
 namespace dss = skelform::dss;
@@ -166,6 +168,29 @@ TEST_CASE("dss_frame: vertex_normals are area-weighted unit normals, zero for is
   glm::vec3 folded_normals[4];
   dss::vertex_normals(folded, 4, folded_indices, 2, folded_normals);
   CHECK(glm::length(folded_normals[0] - glm::normalize(glm::vec3(0, 1, 3))) < 1e-6f);
+}
+
+TEST_CASE("dss_frame: medial_normal_sums turns each sum halfway onto P - S and keeps its length") {
+  const float inf = std::numeric_limits<float>::infinity(), nan = std::numeric_limits<float>::quiet_NaN();
+  // Vertex by vertex: position P, skeletal position S, area-weighted sum A.
+  const glm::vec3 positions[] = {{0, 0, 2}, {0, 0, 0}, {1, 0, 0}, {0, 0, 1}, {0, 0, 1},
+                                 {0, 0, 1}, {nan, 0, 0}, {0, 0, inf}, {1, 2, 3}};
+  const glm::vec3 skeletal[] = {{0, 0, 0}, {-3, 0, 0}, {1, 0, 0}, {0, 0, 0}, {0, 0, 0},
+                                {0, 0, 0}, {0, 0, 0}, {0, 0, 0}, {1, 2, 3.5f}};
+  glm::vec3 sums[] = {{0, 0, 4}, {0, 0, 2}, {0, 3, 0}, {0, 0, 0}, {0, 0, -5},
+                      {1e-31f, 0, 0}, {0, 1, 0}, {0, 1, 0}, {0, 0, 0.5f}};
+  const glm::vec3 before[9] = {sums[0], sums[1], sums[2], sums[3], sums[4], sums[5], sums[6], sums[7], sums[8]};
+  dss::medial_normal_sums(positions, skeletal, 9, sums);
+  // The rest case, A along P − S: the same vector.
+  CHECK(glm::length(sums[0] - before[0]) < 1e-6f);
+  // P − S along +x, A along +z with length 2: the bisector, at 45°, with A's length.
+  CHECK(glm::length(sums[1] - glm::vec3(std::sqrt(2.0f), 0, std::sqrt(2.0f))) < 1e-6f);
+  CHECK(std::fabs(glm::length(sums[1]) - 2.0f) < 1e-6f);
+  // Left as they are: a zero medial radius (P = S), a zero sum, a sum opposite to P − S (no
+  // bisector), a sum below 1e-30, a non-finite position or medial direction.
+  for (int v = 2; v < 8; ++v) CHECK(std::memcmp(&sums[v], &before[v], sizeof(glm::vec3)) == 0);
+  // A sum pointing into the skeleton (P − S along −z, A along +z): exactly opposite, unchanged.
+  CHECK(sums[8] == before[8]);
 }
 
 TEST_CASE("DSS binding of a bumpy sphere reproduces every dense vertex at rest within 1e-5 of the diagonal") {

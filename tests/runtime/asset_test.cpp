@@ -322,19 +322,23 @@ TEST_CASE("a .gltf with a data URI loads from memory; with an external .bin only
 }
 
 // The runtime's refined rest surface (refine_surface), checked against the baker's arithmetic
-// written out here: the area-weighted normal sums of the control mesh (dss_frame.h), then
-// each stored stencil row, scalar, positions and sums alike, the sums normalised.
+// written out here: the area-weighted normal sums of the control mesh turned onto the medial
+// directions (dss_frame.h), then each stored stencil row, scalar, positions and sums alike,
+// the sums normalised.
 void refine_like_the_baker(const skelform::runtime::Deformable& d, std::vector<glm::vec3>& refined,
                            std::vector<glm::vec3>& normals) {
   refined.assign(d.refined_vertex_count, glm::vec3(0.0f));
   normals.assign(d.refined_vertex_count, glm::vec3(0.0f));
   std::vector<glm::vec3> sums(d.control_vertex_count);
-  skelform::runtime::refine_surface(d, d.control_positions.data(), sums.data(), refined.data(), normals.data());
+  skelform::runtime::refine_surface(d, d.control_positions.data(), d.skeletal_positions.data(), sums.data(),
+                                    refined.data(), normals.data());
   // The runtime's pass (grouped stencils, SSE2, one walk for both) rearranges the baker's
   // arithmetic (dss_frame.h, the stored stencils row by row) for speed: same bits.
   std::vector<glm::vec3> baker_sums(d.control_vertex_count, glm::vec3(0.0f));
   skelform::dss::add_face_normals(d.control_positions.data(), d.control_indices.data(),
                                   d.control_indices.size() / 3, baker_sums.data());
+  skelform::dss::medial_normal_sums(d.control_positions.data(), d.skeletal_positions.data(), d.control_vertex_count,
+                                    baker_sums.data());
   // Row by row, scalar, from the grouped copy (the loader keeps only that one): each row's
   // entries in stencil order.
   std::vector<glm::vec3> baker_positions(d.refined_vertex_count), baker_normals(d.refined_vertex_count);

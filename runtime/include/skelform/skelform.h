@@ -65,7 +65,7 @@ extern "C" {
 /* Version of this header. sf_version() returns the version of the linked library; a
  * program may compare the two to detect a header/library mismatch. */
 #define SF_VERSION_MAJOR 0
-#define SF_VERSION_MINOR 4
+#define SF_VERSION_MINOR 5
 #define SF_VERSION_PATCH 0
 /* One integer, comparable: major * 10000 + minor * 100 + patch. */
 #define SF_VERSION (SF_VERSION_MAJOR * 10000 + SF_VERSION_MINOR * 100 + SF_VERSION_PATCH)

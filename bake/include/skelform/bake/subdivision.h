@@ -52,11 +52,14 @@ std::vector<glm::vec3> apply_stencils(const SubdivisionStencils& stencils,
                                       const std::vector<glm::vec3>& control);
 
 // The refined mesh's vertex normals the DSS binding displaces along (dss_frame.h, extension
-// version 2): the area-weighted normal sums of the control mesh given by `control`
-// (positions, float) and `control_triangles`, refined by apply_stencils, each normalised
-// (zero where the refined sum vanishes). The runtime's bits at rest. Error(invalid_input)
-// for a size that does not match the stencils or a triangle corner out of range.
+// version 2.1): the area-weighted normal sums of the control mesh given by `control`
+// (positions, float) and `control_triangles`, with `skeletal` (the skeletal positions S, float,
+// one per control vertex) turned onto the medial directions control − S
+// (dss::medial_normal_sums), refined by apply_stencils, each normalised (zero where the refined
+// sum vanishes). The runtime's bits at rest. Error(invalid_input) for a size that does not
+// match the stencils or a triangle corner out of range.
 std::vector<glm::vec3> refined_normals(const SubdivisionStencils& stencils, const std::vector<glm::vec3>& control,
-                                       const std::vector<Triangle>& control_triangles);
+                                       const std::vector<Triangle>& control_triangles,
+                                       const std::vector<glm::vec3>* skeletal = nullptr);
 
 }  // namespace skelform::bake
