@@ -30,7 +30,7 @@ void refine_surface(const Deformable& deformable, const glm::vec3* control, cons
   for (size_t v = 0; v < control_count; ++v) control_normal_sums[v] = glm::vec3(0.0f);
   add_face_normals(control, control_count, deformable.control_indices.data(), deformable.control_indices.size() / 3,
                    control_normal_sums);
-  if (skeletal) dss::medial_normal_sums(control, skeletal, control_count, control_normal_sums);
+  if (skeletal) medial_normal_sums(control, skeletal, control_count, control_normal_sums);
   const glm::vec3* sums = control_normal_sums;
 
   const uint32_t* rows = deformable.stencil_group_rows.data();

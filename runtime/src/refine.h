@@ -44,6 +44,10 @@ void refine_surface(const Deformable& deformable, const glm::vec3* control, cons
 void add_face_normals(const glm::vec3* positions, size_t vertex_count, const uint32_t* indices, size_t triangle_count,
                       glm::vec3* sums);
 
+// dss::medial_normal_sums, to the bit (SSE2 where the compiler targets it, refine_normals.cpp):
+// turns each of the `vertex_count` normal sums halfway onto positions − skeletal.
+void medial_normal_sums(const glm::vec3* positions, const glm::vec3* skeletal, size_t vertex_count, glm::vec3* sums);
+
 // Divides each of the `count` vectors by its length, in place, block-wise and branch-free so
 // the square roots and divisions vectorise (correctly rounded per lane: the bits of the scalar
 // v / length). A vector of length ≤ 1e-30 becomes +0 (dss::normalise_or_zero's rule).

@@ -85,4 +85,49 @@ void add_face_normals(const glm::vec3* positions, size_t vertex_count, const uin
 #endif
 }
 
+void medial_normal_sums(const glm::vec3* positions, const glm::vec3* skeletal, size_t vertex_count, glm::vec3* sums) {
+  size_t c = 0;
+#if defined(__SSE2__)
+  // Four vertices at a time, lanes = vertices: dss::medial_normal_sums's operations lane by
+  // lane in its order (its reciprocals, products and square roots; its tests as a mask that
+  // keeps A where the scalar code skips the vertex), so its bits. Measured: the scalar loop
+  // was ~2 % of an evaluation on CesiumMan_loop2 (three square roots and three divisions per
+  // control vertex, one at a time).
+  using namespace lane4;
+  const __m128 one = _mm_set1_ps(1.0f), tiny = _mm_set1_ps(1e-30f), largest = _mm_set1_ps(FLT_MAX);
+  for (; c + 4 <= vertex_count; c += 4) {
+    __m128 px = sse::load3(positions[c]), py = sse::load3(positions[c + 1]), pz = sse::load3(positions[c + 2]),
+           pw = sse::load3(positions[c + 3]);
+    __m128 sx = sse::load3(skeletal[c]), sy = sse::load3(skeletal[c + 1]), sz = sse::load3(skeletal[c + 2]),
+           sw = sse::load3(skeletal[c + 3]);
+    __m128 ax = sse::load3(sums[c]), ay = sse::load3(sums[c + 1]), az = sse::load3(sums[c + 2]),
+           aw = sse::load3(sums[c + 3]);
+    _MM_TRANSPOSE4_PS(px, py, pz, pw);
+    _MM_TRANSPOSE4_PS(sx, sy, sz, sw);
+    _MM_TRANSPOSE4_PS(ax, ay, az, aw);
+    const __m128 mx = sub(px, sx), my = sub(py, sy), mz = sub(pz, sz);
+    const __m128 medial_length = _mm_sqrt_ps(dot(mx, my, mz, mx, my, mz));
+    const __m128 weight = _mm_sqrt_ps(dot(ax, ay, az, ax, ay, az));
+    const __m128 inverse_weight = _mm_div_ps(one, weight), inverse_medial = _mm_div_ps(one, medial_length);
+    const __m128 bx = add(mul(ax, inverse_weight), mul(mx, inverse_medial));
+    const __m128 by = add(mul(ay, inverse_weight), mul(my, inverse_medial));
+    const __m128 bz = add(mul(az, inverse_weight), mul(mz, inverse_medial));
+    const __m128 bisector_length = _mm_sqrt_ps(dot(bx, by, bz, bx, by, bz));
+    const __m128 scale = _mm_div_ps(weight, bisector_length);
+    const __m128 keep = _mm_and_ps(
+        _mm_and_ps(_mm_and_ps(_mm_cmpgt_ps(medial_length, tiny), _mm_cmpgt_ps(weight, tiny)),
+                   _mm_and_ps(_mm_cmple_ps(medial_length, largest), _mm_cmple_ps(weight, largest))),
+        _mm_cmpgt_ps(bisector_length, tiny));
+    __m128 rx = select(keep, mul(bx, scale), ax), ry = select(keep, mul(by, scale), ay),
+           rz = select(keep, mul(bz, scale), az), rw = _mm_setzero_ps();
+    _MM_TRANSPOSE4_PS(rx, ry, rz, rw);
+    sse::store3(sums[c], rx);
+    sse::store3(sums[c + 1], ry);
+    sse::store3(sums[c + 2], rz);
+    sse::store3(sums[c + 3], rw);
+  }
+#endif
+  dss::medial_normal_sums(positions + c, skeletal + c, vertex_count - c, sums + c);
+}
+
 }  // namespace skelform::runtime

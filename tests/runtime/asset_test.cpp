@@ -397,6 +397,40 @@ TEST_CASE("a level-2 bake: the runtime refines the rest control mesh and its nor
   CHECK(worst <= 1e-5f * glm::length(high - low));
 }
 
+TEST_CASE("medial_normal_sums: the runtime's four-lane pass gives the scalar rule's bits, fallbacks included") {
+  // Deformed-looking input (P − S and A disagree, as away from rest) mixed with every case the
+  // rule leaves alone, at every position within a group of four and in the scalar tail.
+  const float inf = std::numeric_limits<float>::infinity(), nan = std::numeric_limits<float>::quiet_NaN();
+  std::vector<glm::vec3> positions, skeletal, sums;
+  uint32_t state = 12345u;
+  const auto next = [&state] {
+    state = state * 1664525u + 1013904223u;
+    return float(state >> 8) / float(1u << 24) * 2.0f - 1.0f;
+  };
+  for (int v = 0; v < 67; ++v) {
+    positions.emplace_back(next(), next(), next());
+    skeletal.emplace_back(positions.back() - 0.3f * glm::vec3(next(), next(), next()));
+    sums.emplace_back(next(), next(), next());
+    switch (v % 9) {
+      case 1: skeletal.back() = positions.back(); break;                        // zero medial radius
+      case 2: sums.back() = glm::vec3(0.0f); break;                             // no normal
+      case 3: sums.back() = positions.back() - skeletal.back(); break;          // the rest case
+      case 4: sums.back() = skeletal.back() - positions.back(); break;          // opposite: no bisector
+      case 5: positions.back().y = nan; break;
+      case 6: skeletal.back().z = inf; break;
+      case 7: sums.back() = glm::vec3(1e-31f, 0.0f, 0.0f); break;
+      default: break;
+    }
+  }
+  std::vector<glm::vec3> scalar = sums, lanes = sums;
+  skelform::dss::medial_normal_sums(positions.data(), skeletal.data(), positions.size(), scalar.data());
+  skelform::runtime::medial_normal_sums(positions.data(), skeletal.data(), positions.size(), lanes.data());
+  CHECK(std::memcmp(scalar.data(), lanes.data(), scalar.size() * sizeof(glm::vec3)) == 0);
+  // The general case is exercised, not only the fallbacks: those vertices were turned.
+  for (size_t v = 0; v < sums.size(); ++v)
+    if (v % 9 == 0 || v % 9 == 8) CHECK(std::memcmp(&scalar[v], &sums[v], sizeof(glm::vec3)) != 0);
+}
+
 TEST_CASE("the rest evaluation reproduces the original vertices; Fox (no NORMAL) gets unit rest normals") {
   for (const char* sample : {"RiggedSimple/RiggedSimple.glb", "Fox/Fox.glb"}) {
     SKELFORM_REQUIRE_DATA(path, sample);
