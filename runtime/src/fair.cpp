@@ -26,9 +26,6 @@
 #include <cmath>
 #include <limits>
 
-#if defined(_MSC_VER) && !defined(__clang__)
-#include <intrin.h>
-#endif
 #if defined(__SSE2__)
 #include <emmintrin.h>
 #endif
@@ -273,19 +270,6 @@ void fold_step(const FairingTopology& topo, const glm::vec3* skeletal, const flo
 
 // ---- flow (5) ----------------------------------------------------------------------------
 
-constexpr int kMaxMaskedGrid = 64;  // cells per axis that FairingWorkspace::row_occupancy covers
-
-// Index of the lowest set bit of a non-zero mask.
-inline int ctz64(uint64_t mask) {
-#if defined(_MSC_VER) && !defined(__clang__)
-  unsigned long index;
-  _BitScanForward64(&index, mask);
-  return static_cast<int>(index);
-#else
-  return __builtin_ctzll(mask);
-#endif
-}
-
 struct Grid {
   glm::vec3 origin{0.0f};
   glm::vec3 cell{1.0f};      // cell size per axis
@@ -342,16 +326,9 @@ Grid build_grid(const FairingTopology& topo, const glm::vec3* skeletal, const fl
     ws.vertex_cell[v] = static_cast<uint32_t>(c);
     ++ws.cell_offsets[c + 1];
   }
-  // Counts to offsets, row by row (z, y), noting which cells of each row hold balls.
-  const bool masked = size <= kMaxMaskedGrid;
-  for (size_t row = 0, c = 0; row < size_t(size) * size; ++row) {
-    uint64_t occupied = 0;
-    for (int column = 0; column < size; ++column, ++c) {
-      if (masked) occupied |= uint64_t{ws.cell_offsets[c + 1] != 0} << column;
-      ws.cell_offsets[c + 1] += ws.cell_offsets[c];
-    }
-    if (masked) ws.row_occupancy[row] = occupied;
-  }
+  // Counts to offsets. A row of cells (z, y) is then one run of slots: field_at scans a
+  // neighbourhood row as cell_offsets[first cell] .. cell_offsets[last cell + 1].
+  for (size_t c = 0; c < cell_count; ++c) ws.cell_offsets[c + 1] += ws.cell_offsets[c];
   // Counting sort, stable: each cell lists its vertices in ascending order (determinism of
   // ties in the minimum below).
   for (uint32_t v = 0; v < vertex_count; ++v) {
@@ -360,7 +337,7 @@ Grid build_grid(const FairingTopology& topo, const glm::vec3* skeletal, const fl
   }
   for (size_t c = cell_count; c > 0; --c) ws.cell_offsets[c] = ws.cell_offsets[c - 1];
   ws.cell_offsets[0] = 0;
-  // The balls in cell order, structure of arrays: cell_minimum's candidates side by side.
+  // The balls in cell order, structure of arrays: slot_minimum's candidates side by side.
   for (uint32_t k = 0; k < ws.cell_offsets[cell_count]; ++k) {
     const uint32_t s = ws.cell_vertices[k];
     ws.cell_x[k] = skeletal[s].x;
@@ -382,11 +359,12 @@ inline bool precedes(float g, uint32_t s, const FieldValue& best) {
   return g < best.f || (g == best.f && s < best.minimiser);
 }
 
-// min of g(x, S) = |x − S|² − d_S² over the skeletal vertices of one cell other than
-// `exclude`, into `best`, from the balls' cell-ordered copy (build_grid: S and d² side by side).
-// g is (dx² + dy²) + dz² − d² in either path, the same minimum and the same ties.
-void cell_minimum(const glm::vec3& x, const FairingWorkspace& ws, size_t cell, uint32_t exclude, FieldValue& best) {
-  const uint32_t begin = ws.cell_offsets[cell], end = ws.cell_offsets[cell + 1];
+// min of g(x, S) = |x − S|² − d_S² over the skeletal vertices in slots [begin, end) of the
+// balls' cell-ordered copy (build_grid: S and d² side by side) other than `exclude`, into
+// `best`. The slots of consecutive cells are consecutive, so a run of cells along x is one
+// range. g is (dx² + dy²) + dz² − d² in either path, the same minimum and the same ties.
+void slot_minimum(const glm::vec3& x, const FairingWorkspace& ws, uint32_t begin, uint32_t end, uint32_t exclude,
+                  FieldValue& best) {
 #if defined(__SSE2__)
   // Four candidates at a time; only a group with some g below the best so far is walked lane by
   // lane, in order, with the portable rule.
@@ -426,57 +404,52 @@ FieldValue field_at(const Grid& grid, const glm::vec3& x, const FairingWorkspace
   const int cy = cell_coordinate(x.y, grid.origin.y, grid.inverse_cell.y, n);
   const int cz = cell_coordinate(x.z, grid.origin.z, grid.inverse_cell.z, n);
   FieldValue best;
-  cell_minimum(x, ws, (size_t(cz) * n + cy) * n + cx, exclude, best);
+  const uint32_t* offsets = ws.cell_offsets.data();
+  const size_t own = (size_t(cz) * n + cy) * n + cx;
+  slot_minimum(x, ws, offsets[own], offsets[own + 1], exclude, best);
   // The paper stops here when h of the own cell is negative. That makes f jump where the
   // own cell's minimum crosses 0 (a float rounding away at rest), so the neighbourhood's
   // minimum is always taken: the same f wherever the own cell's value is negative and
   // another cell's is lower, continuous otherwise.
+  // The (widened) 3×3×3 neighbourhood at once, each row of it (z, y) one run of slots from its
+  // first cell's to past its last cell's: empty cells cost nothing and the balls of a row are
+  // read four at a time without a break at every cell boundary (the own row in two runs, the
+  // own cell being done above). The neighbourhood spans up to (2 ring + 1)³ cells, most of
+  // them empty (CesiumMan_loop2, ring 3: 343 cells). The minimum does not depend on the order
+  // (precedes), so it is the shell-by-shell search's minimum. (Row occupancy masks visiting
+  // only the occupied cells, one call per cell, were slower on CesiumMan_loop2. No per-cell
+  // pruning by dist(x, cell)² − (largest d in the cell)² ≥ best either: a cell that bound
+  // excludes cannot lower `best`, so the result is the same without it, and measured, its
+  // unpredictable branch cost more than scanning the cell four balls at a time: ~2 % of an
+  // evaluation on CesiumMan_loop2.)
   const int last_ring = std::max(std::max(grid.ring[0], grid.ring[1]), grid.ring[2]);
-  int first_shell = 1;
-  if (n <= kMaxMaskedGrid) {
-    // The (widened) 3×3×3 neighbourhood at once, row by row, visiting only the cells that hold
-    // balls (build_grid's row_occupancy): the neighbourhood spans up to (2 ring + 1)³ cells,
-    // most of them empty (measured on CesiumMan_loop2, ring 3: ~0.8 µs a search visiting all
-    // 343 cells, 9 % of an evaluation; ~0.6 µs visiting the occupied ones). The minimum does not
-    // depend on the order (precedes), so it is the shell-by-shell search's minimum.
-    const int x0 = std::max(0, cx - last_ring), x1 = std::min(n - 1, cx + last_ring);
-    const uint64_t span = (x1 - x0 + 1 >= 64 ? ~uint64_t{0} : (uint64_t{1} << (x1 - x0 + 1)) - 1) << x0;
-    for (int z = std::max(0, cz - last_ring); z <= std::min(n - 1, cz + last_ring); ++z)
-      for (int y = std::max(0, cy - last_ring); y <= std::min(n - 1, cy + last_ring); ++y) {
-        uint64_t cells = ws.row_occupancy[size_t(z) * n + y] & span;
-        if (z == cz && y == cy) cells &= ~(uint64_t{1} << cx);  // the own cell: done above
-        for (; cells != 0; cells &= cells - 1) {
-          const int xx = ctz64(cells);
-          cell_minimum(x, ws, (size_t(z) * n + y) * n + xx, exclude, best);
-        }
+  const int x0 = std::max(0, cx - last_ring), x1 = std::min(n - 1, cx + last_ring);
+  for (int z = std::max(0, cz - last_ring); z <= std::min(n - 1, cz + last_ring); ++z)
+    for (int y = std::max(0, cy - last_ring); y <= std::min(n - 1, cy + last_ring); ++y) {
+      const size_t row = (size_t(z) * n + y) * n;
+      if (z == cz && y == cy) {
+        slot_minimum(x, ws, offsets[row + x0], offsets[own], exclude, best);
+        slot_minimum(x, ws, offsets[own + 1], offsets[row + x1 + 1], exclude, best);
+      } else {
+        slot_minimum(x, ws, offsets[row + x0], offsets[row + x1 + 1], exclude, best);
       }
-    first_shell = last_ring + 1;
-  }
-  // Shells of Chebyshev radius r around the own cell, nearest first (beyond the neighbourhood
-  // when it held no ball, or all of it on a grid too large for the row masks): a shell whose
-  // every point is at least (r − 1) cells away cannot reach `best` once (r − 1)²·cell² −
-  // (max d)² > best, which ends the search early without changing the minimum.
-  for (int r = first_shell; r <= n; ++r) {
-    const bool searched = best.minimiser != std::numeric_limits<uint32_t>::max();
-    if (r > last_ring && searched) break;  // the (widened) 3×3×3 neighbourhood is done
-    const float gap = float(r - 1) * grid.cell.x;
-    if (searched && gap * gap - grid.max_radius * grid.max_radius > best.f) break;
+    }
+  // Shells of Chebyshev radius r around the own cell beyond the neighbourhood, nearest first,
+  // only while no ball has been found, up to the first shell holding one. A row on the
+  // shell's faces in z or y is one run; any other row of the shell's cube meets its surface in
+  // the two cells at x = cx ± r.
+  for (int r = last_ring + 1; r <= n && best.minimiser == std::numeric_limits<uint32_t>::max(); ++r) {
+    const int shell_x0 = std::max(0, cx - r), shell_x1 = std::min(n - 1, cx + r);
     for (int z = std::max(0, cz - r); z <= std::min(n - 1, cz + r); ++z)
-      for (int y = std::max(0, cy - r); y <= std::min(n - 1, cy + r); ++y)
-        for (int xx = std::max(0, cx - r); xx <= std::min(n - 1, cx + r); ++xx) {
-          // Inside the shell's cube but not on its surface: jump to the far face in x.
-          if (std::abs(z - cz) != r && std::abs(y - cy) != r && std::abs(xx - cx) != r) {
-            xx = cx + r - 1;
-            continue;
-          }
-          const size_t c = (size_t(z) * n + y) * n + xx;
-          if (ws.cell_offsets[c] == ws.cell_offsets[c + 1]) continue;
-          // (No per-cell pruning by dist(x, cell)² − (largest d in the cell)² ≥ best: a cell
-          // that bound excludes cannot lower `best`, so the result is the same without it, and
-          // measured, its unpredictable branch cost more than scanning the cell four balls at
-          // a time: ~2 % of an evaluation on CesiumMan_loop2.)
-          cell_minimum(x, ws, c, exclude, best);
+      for (int y = std::max(0, cy - r); y <= std::min(n - 1, cy + r); ++y) {
+        const size_t row = (size_t(z) * n + y) * n;
+        if (std::abs(z - cz) == r || std::abs(y - cy) == r) {
+          slot_minimum(x, ws, offsets[row + shell_x0], offsets[row + shell_x1 + 1], exclude, best);
+          continue;
         }
+        if (cx - r >= 0) slot_minimum(x, ws, offsets[row + cx - r], offsets[row + cx - r + 1], exclude, best);
+        if (cx + r < n) slot_minimum(x, ws, offsets[row + cx + r], offsets[row + cx + r + 1], exclude, best);
+      }
   }
   return best;
 }
@@ -1161,7 +1134,6 @@ FairingWorkspace make_fairing_workspace(const FairingTopology& topology, uint32_
   ws.tangential_weight.assign(n, 0.0f);
   ws.force_direction.assign(n, glm::vec3(0.0f));
   ws.cell_offsets.assign(cells + 1, 0);
-  ws.row_occupancy.assign(size_t(ws.grid_size) * ws.grid_size, 0);
   ws.cell_vertices.assign(n, 0);
   ws.vertex_cell.assign(n, 0);
   ws.cell_x.assign(n + 3, 0.0f);

@@ -110,7 +110,6 @@ struct FairingWorkspace {
         start_positions(CallbackAllocator<glm::vec3>(a)), smoothing_weight(CallbackAllocator<float>(a)),
         tangential_weight(CallbackAllocator<float>(a)),
         force_direction(CallbackAllocator<glm::vec3>(a)), cell_offsets(CallbackAllocator<uint32_t>(a)),
-        row_occupancy(CallbackAllocator<uint64_t>(a)),
         cell_vertices(CallbackAllocator<uint32_t>(a)),
         vertex_cell(CallbackAllocator<uint32_t>(a)), cell_x(CallbackAllocator<float>(a)),
         cell_y(CallbackAllocator<float>(a)), cell_z(CallbackAllocator<float>(a)), cell_rr(CallbackAllocator<float>(a)),
@@ -131,10 +130,8 @@ struct FairingWorkspace {
   Array<float> smoothing_weight;         // α (flow 4) or W (flow 5) per vertex
   Array<float> tangential_weight;        // flow (4)'s weight of V per vertex
   Array<glm::vec3> force_direction;      // F/|F| per vertex (flow 4), 0 where F = 0
-  Array<uint32_t> cell_offsets;          // grid_size³ + 1: skeletal vertices per cell (CSR)
-  Array<uint64_t> row_occupancy;         // grid_size² rows (z, y): bit x set = cell (x, y, z) not
-                                         // empty (grids of up to 64 cells per axis; larger ones
-                                         // visit every cell)
+  Array<uint32_t> cell_offsets;          // grid_size³ + 1: skeletal vertices per cell (CSR; a row
+                                         // of cells along x is one run of slots)
   Array<uint32_t> cell_vertices;         // vertex_count
   Array<uint32_t> vertex_cell;           // vertex_count: scratch for the bucket sort
   // S and d² of cell_vertices[k] at k (vertex_count + 3: flow (5)'s search reads 4 at a time)
