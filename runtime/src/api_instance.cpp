@@ -50,9 +50,11 @@ sf_instance::sf_instance(const sf_asset& owner, const Deformable& d)
   const size_t control_count = d.control_vertex_count;
   skeletal.resize(control_count);
   normal_matrices.resize(control_count);
-  control.resize(control_count);
+  // The buffers displace reads with 16-byte loads end in padding (memory.h kVec3ReadPadding);
+  // `control` and `previous_control` trade places after every evaluation, so both have it.
+  control.resize(control_count + kVec3ReadPadding);
   previous_skeletal.resize(control_count);
-  previous_control.resize(control_count);
+  previous_control.resize(control_count + kVec3ReadPadding);
   step_normals_a.resize(control_count);
   step_normals_b.resize(control_count);
   rest_normal_offset.resize(control_count);
@@ -68,9 +70,9 @@ sf_instance::sf_instance(const sf_asset& owner, const Deformable& d)
   fairing_reference_umbrella.assign(control_count, glm::vec3(0.0f));
   fairing_mean_edge.assign(control_count, 0.0f);
   fairing_fixed.assign(control_count, 0);
-  control_normal_sums.resize(control_count);
-  refined_positions.resize(d.refined_vertex_count);
-  refined_normals.resize(d.refined_vertex_count);
+  control_normal_sums.resize(control_count + kVec3ReadPadding);
+  refined_positions.resize(d.refined_vertex_count + kVec3ReadPadding);
+  refined_normals.resize(d.refined_vertex_count + kVec3ReadPadding);
   dense_positions.resize(d.vertex_count);
   dense_normals.resize(d.vertex_count);
   bool any_tangents = false;

@@ -75,10 +75,11 @@ void gather(const Deformable& d, const glm::vec3* refined, const glm::vec3* refi
   const uint32_t* corner = d.binding_corners.data() + 3 * size_t{first};
   uint32_t i = 0;
 #if defined(__SSE2__)
-  // Four vertices at a time: each corner read as one vector (vec3_sse.h), the interpolation
-  // done on x, y and z together (lane by lane the scalar loop's operations in its order, so its
-  // bits), and the four results transposed into the block's rows.
-  const sse::Vec3Reader read(refined, d.refined_vertex_count), read_normal(refined_normal, d.refined_vertex_count);
+  // Four vertices at a time: each corner read as one vector (vec3_sse.h; the refined buffers
+  // are padded, instance.h), the interpolation done on x, y and z together (lane by lane the
+  // scalar loop's operations in its order, so its bits), and the four results transposed into
+  // the block's rows.
+  const sse::PaddedVec3Reader read(refined), read_normal(refined_normal);
   for (; i + 4 <= count; i += 4) {
     __m128 q[4], m[4], e[4];
     for (uint32_t j = 0; j < 4; ++j, corner += 3) {

@@ -135,7 +135,9 @@ FairingSchedule run_fairing_schedule(const FairingTopology& topology, const glm:
 
 // displace.cpp. Refines the control mesh (refine.h refine_surface, `control_normal_sums` its
 // control-sized scratch) and places every dense vertex from its DSS binding; with
-// `with_normals`, also normals (and tangents where authored).
+// `with_normals`, also normals (and tangents where authored). `control`,
+// `control_normal_sums`, `refined_positions` and `refined_normals` carry kVec3ReadPadding
+// vectors past their vertices (memory.h: read by 16-byte loads).
 struct DenseOutput {
   glm::vec3* positions;
   glm::vec3* normals;
@@ -168,6 +170,8 @@ struct sf_instance {
 
   // Coarse state. `skeletal`/`control` are this evaluation's S' and M; `previous_*` the last
   // SF_METHOD_SKELFORM evaluation's (the incremental start), swapped in after each one.
+  // `control` and `previous_control` (swapped) hold kVec3ReadPadding vectors past the control
+  // vertices, as displace reads them (memory.h).
   skelform::runtime::Array<glm::vec3> skeletal;
   skelform::runtime::Array<glm::mat3> normal_matrices;
   skelform::runtime::Array<glm::vec3> control;
@@ -205,8 +209,8 @@ struct sf_instance {
   uint32_t last_fairing_iterations = 0;
   float last_fairing_residual = 0.0f;
 
-  // Refined surface (and the control mesh's normal sums it is refined from) and the dense
-  // result sf_instance_write copies out.
+  // Refined surface (and the control mesh's normal sums it is refined from; these three padded
+  // by kVec3ReadPadding vectors, memory.h) and the dense result sf_instance_write copies out.
   skelform::runtime::Array<glm::vec3> control_normal_sums;
   skelform::runtime::Array<glm::vec3> refined_positions;
   skelform::runtime::Array<glm::vec3> refined_normals;

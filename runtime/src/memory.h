@@ -61,6 +61,13 @@ struct CallbackAllocator {
 template <class T>
 using Array = std::vector<T, CallbackAllocator<T>>;
 
+// Vertex buffers that the SSE2 kernels read a vector at a time with whole 16-byte loads
+// (vec3_sse.h PaddedVec3Reader: refine_surface's control positions and normal sums, displace's
+// refined surface) hold this many glm::vec3 past their last vertex: the load of the last
+// vertex reads one float beyond it, and that float is then inside the buffer. The padding's
+// value is never used.
+constexpr size_t kVec3ReadPadding = 1;
+
 // Objects created with the callback allocator (sf_asset, sf_instance).
 template <class T, class... Args>
 T* create_object(const AllocatorRef& ref, Args&&... args) {

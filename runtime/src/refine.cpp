@@ -39,7 +39,8 @@ void refine_surface(const Deformable& deformable, const glm::vec3* control, cons
   const size_t groups = deformable.stencil_group_lengths.size();
 #if defined(__SSE2__)
   static_assert(kStencilLanes == 4, "one SSE vector of weights per stencil step");
-  const sse::Vec3Reader read(control, control_count), read_normal(sums, control_count);
+  // Both buffers are padded (refine.h): plain 16-byte loads, no special last vertex.
+  const sse::PaddedVec3Reader read(control), read_normal(sums);
   for (size_t g = 0; g < groups; ++g, rows += kStencilLanes) {
     // Row r's sums (x, y, z) in point[r] and normal[r], from zero, in stencil order: the
     // scalar code's bits. One walk of the stencils feeds both.

@@ -31,7 +31,10 @@ namespace skelform::runtime {
 //    into `control_normal_sums`, control_vertex_count entries of scratch), normalised as the
 //    rows are stored (dss::normalise_or_zero's bits: zero where the sum vanishes).
 // The baker's bits (bake/src/subdivision.cpp apply_stencils, refined_normals). `refined` and
-// `refined_normals` hold refined_vertex_count entries; no two buffers may alias.
+// `refined_normals` hold refined_vertex_count entries; no two buffers may alias. `control` and
+// `control_normal_sums` are read a whole 16-byte vector at a time (vec3_sse.h
+// PaddedVec3Reader): each holds kVec3ReadPadding (memory.h) readable vectors past its
+// control_vertex_count positions.
 // With `skeletal` (control_vertex_count positions, S indexed like `control`), each control
 // normal sum is first turned onto the medial direction control − skeletal
 // (dss::medial_normal_sums: extension version 2.1); null leaves the area-weighted sums.
