@@ -628,13 +628,7 @@ void derive_rest_data(Deformable& deformable) {
   group_stencils(deformable);
   std::vector<glm::vec3> refined(deformable.refined_vertex_count);
   std::vector<glm::vec3> normals(deformable.refined_vertex_count);
-  // refine_surface reads the control positions and the normal sums from padded buffers
-  // (refine.h): a padded copy of the positions, once per load.
-  std::vector<glm::vec3> control(deformable.control_vertex_count + kVec3ReadPadding, glm::vec3(0.0f));
-  std::copy(deformable.control_positions.begin(), deformable.control_positions.end(), control.begin());
-  std::vector<glm::vec3> control_normal_sums(deformable.control_vertex_count + kVec3ReadPadding);
-  refine_surface(deformable, control.data(), deformable.skeletal_positions.data(), control_normal_sums.data(),
-                 refined.data(), normals.data());
+  refine_rest_surface(deformable, refined.data(), normals.data());
 
   deformable.binding_corners.resize(3 * size_t{deformable.vertex_count});
   for (uint32_t v = 0; v < deformable.vertex_count; ++v)

@@ -18,6 +18,9 @@
 #include "refine.h"
 #include "vec3_sse.h"
 
+#include <algorithm>
+#include <vector>
+
 namespace skelform::runtime {
 
 namespace {
@@ -95,6 +98,14 @@ void refine_surface(const Deformable& deformable, const glm::vec3* control, cons
     }
   }
 #endif
+}
+
+void refine_rest_surface(const Deformable& deformable, glm::vec3* refined, glm::vec3* refined_normals) {
+  std::vector<glm::vec3> control(deformable.control_vertex_count + kVec3ReadPadding, glm::vec3(0.0f));
+  std::copy(deformable.control_positions.begin(), deformable.control_positions.end(), control.begin());
+  std::vector<glm::vec3> sums(deformable.control_vertex_count + kVec3ReadPadding);
+  refine_surface(deformable, control.data(), deformable.skeletal_positions.data(), sums.data(), refined,
+                 refined_normals);
 }
 
 }  // namespace skelform::runtime

@@ -41,6 +41,11 @@ namespace skelform::runtime {
 void refine_surface(const Deformable& deformable, const glm::vec3* control, const glm::vec3* skeletal,
                     glm::vec3* control_normal_sums, glm::vec3* refined, glm::vec3* refined_normals);
 
+// refine_surface of the rest pose (Deformable::control_positions over skeletal_positions),
+// from padded copies it makes itself: the loader's rest evaluation, once per load (the
+// asset's own arrays stay exactly control_vertex_count long).
+void refine_rest_surface(const Deformable& deformable, glm::vec3* refined, glm::vec3* refined_normals);
+
 // dss::add_face_normals, to the bit (SSE2 where the compiler targets it, refine_normals.cpp):
 // adds each triangle's (p1 - p0) × (p2 - p0) to `sums` at its three corners, in triangle order.
 // `positions` holds vertex_count entries, every index is below it.

@@ -329,12 +329,7 @@ void refine_like_the_baker(const skelform::runtime::Deformable& d, std::vector<g
                            std::vector<glm::vec3>& normals) {
   refined.assign(d.refined_vertex_count, glm::vec3(0.0f));
   normals.assign(d.refined_vertex_count, glm::vec3(0.0f));
-  // refine_surface reads the control positions and the sums from padded buffers (refine.h).
-  std::vector<glm::vec3> control(d.control_positions.begin(), d.control_positions.end());
-  control.resize(d.control_vertex_count + skelform::runtime::kVec3ReadPadding, glm::vec3(0.0f));
-  std::vector<glm::vec3> sums(d.control_vertex_count + skelform::runtime::kVec3ReadPadding);
-  skelform::runtime::refine_surface(d, control.data(), d.skeletal_positions.data(), sums.data(), refined.data(),
-                                    normals.data());
+  skelform::runtime::refine_rest_surface(d, refined.data(), normals.data());
   // The runtime's pass (grouped stencils, SSE2, one walk for both) rearranges the baker's
   // arithmetic (dss_frame.h, the stored stencils row by row) for speed: same bits.
   std::vector<glm::vec3> baker_sums(d.control_vertex_count, glm::vec3(0.0f));
