@@ -60,9 +60,14 @@ bool triangles_intersect(const Vec3& a0, const Vec3& a1, const Vec3& a2, const V
   return true;
 }
 
-size_t count_self_intersections(const TriangleMesh& mesh) {
+namespace {
+
+// Calls found(s, t) once for every unordered intersecting pair of triangles sharing no
+// vertex (s < t not guaranteed).
+template <class Found>
+void visit_self_intersections(const TriangleMesh& mesh, Found&& found) {
   const size_t triangle_count = mesh.triangles.size();
-  if (triangle_count < 2) return 0;
+  if (triangle_count < 2) return;
 
   std::vector<Box> boxes(triangle_count);
   Box all{Vec3(1e300), Vec3(-1e300)};
@@ -82,7 +87,6 @@ size_t count_self_intersections(const TriangleMesh& mesh) {
   const double largest = std::max({extent.x, extent.y, extent.z});
   if (!(largest > 0.0) || !std::isfinite(largest)) {
     // Everything at one point (or non-finite input): test every pair (tiny or broken meshes).
-    size_t count = 0;
     for (size_t s = 0; s < triangle_count; ++s)
       for (size_t t = s + 1; t < triangle_count; ++t) {
         const Triangle& p = mesh.triangles[s];
@@ -92,9 +96,9 @@ size_t count_self_intersections(const TriangleMesh& mesh) {
           for (uint32_t j : q) adjacent |= i == j;
         if (!adjacent && triangles_intersect(mesh.positions[p[0]], mesh.positions[p[1]], mesh.positions[p[2]],
                                              mesh.positions[q[0]], mesh.positions[q[1]], mesh.positions[q[2]]))
-          ++count;
+          found(uint32_t(s), uint32_t(t));
       }
-    return count;
+    return;
   }
 
   // Cell about the mean triangle size, so a triangle covers a few cells; coarsened until the
@@ -139,7 +143,6 @@ size_t count_self_intersections(const TriangleMesh& mesh) {
         for (int64_t x = r.lo[0]; x <= r.hi[0]; ++x) entries[fill[linear(x, y, z)]++] = static_cast<uint32_t>(t);
   }
 
-  size_t count = 0;
   for (int64_t z = 0; z < dims[2]; ++z)
     for (int64_t y = 0; y < dims[1]; ++y)
       for (int64_t x = 0; x < dims[0]; ++x) {
@@ -160,11 +163,25 @@ size_t count_self_intersections(const TriangleMesh& mesh) {
               continue;
             if (triangles_intersect(mesh.positions[p[0]], mesh.positions[p[1]], mesh.positions[p[2]],
                                     mesh.positions[q[0]], mesh.positions[q[1]], mesh.positions[q[2]]))
-              ++count;
+              found(s, t);
           }
         }
       }
+}
+
+}  // namespace
+
+size_t count_self_intersections(const TriangleMesh& mesh) {
+  size_t count = 0;
+  visit_self_intersections(mesh, [&](uint32_t, uint32_t) { ++count; });
   return count;
+}
+
+std::vector<std::pair<uint32_t, uint32_t>> self_intersecting_pairs(const TriangleMesh& mesh) {
+  std::vector<std::pair<uint32_t, uint32_t>> pairs;
+  visit_self_intersections(mesh, [&](uint32_t s, uint32_t t) { pairs.emplace_back(std::min(s, t), std::max(s, t)); });
+  std::sort(pairs.begin(), pairs.end());
+  return pairs;
 }
 
 }  // namespace skelform::bake

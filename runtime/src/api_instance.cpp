@@ -26,6 +26,7 @@ sf_instance::sf_instance(const sf_asset& owner, const Deformable& d)
       step_normals_b(CallbackAllocator<glm::vec3>(owner.allocator)),
       rest_normal_offset(CallbackAllocator<glm::vec3>(owner.allocator)),
       arc_poses(CallbackAllocator<ArcPose>(owner.allocator)), arc_radius(CallbackAllocator<float>(owner.allocator)),
+      scaled_radius(CallbackAllocator<float>(owner.allocator)),
       fairing(owner.allocator),
       contact_mesh(owner.allocator), contact(owner.allocator),
       fairing_frames(CallbackAllocator<glm::mat3>(owner.allocator)),
@@ -47,6 +48,10 @@ sf_instance::sf_instance(const sf_asset& owner, const Deformable& d)
   prepare_joint(glm::mat4(1.0f), identity_affine, identity_dq);
   joints.affine.assign(d.joint_count, identity_affine);
   joints.dual_quaternion.assign(d.joint_count, identity_dq);
+  joints.skin_affine.assign(d.joint_count, identity_affine);
+  joints.skin_dual_quaternion.assign(d.joint_count, identity_dq);
+  joints.scale_ratio.assign(d.joint_count, 1.0f);
+  joints.matrices.assign(d.joint_count, glm::mat4(1.0f));
   const size_t control_count = d.control_vertex_count;
   skeletal.resize(control_count);
   normal_matrices.resize(control_count);
@@ -61,6 +66,7 @@ sf_instance::sf_instance(const sf_asset& owner, const Deformable& d)
   rest_normal_offsets(d, rest_normal_offset.data());
   arc_poses.resize(d.arc_joints.size());
   arc_radius.resize(control_count);
+  scaled_radius.resize(control_count);
   radius = d.medial_radius.data();
   fairing = make_fairing_workspace(d.fairing_topology, kMaxIntersectionGrid, owner.allocator);
   fairing_frames.resize(control_count);
@@ -177,7 +183,7 @@ sf_result evaluate(sf_instance& instance, const sf_eval_options& options) {
     // 1. S → S'.
     instance.radius = d.medial_radius.data();
     if (instance.driver == Driver::skin && options.skeleton_skinning == SF_SKELETON_ARCS) {
-      pose_joint_arcs(d, instance.joints.affine.data(), instance.arc_poses.data());
+      pose_joint_arcs(d, instance.joints.skin_affine.data(), instance.arc_poses.data());
       drive_skeleton_arcs(d, instance.joints, instance.arc_poses.data(), instance.skeletal.data(),
                           instance.normal_matrices.data(), instance.arc_radius.data());
       instance.radius = instance.arc_radius.data();
@@ -187,6 +193,13 @@ sf_result evaluate(sf_instance& instance, const sf_eval_options& options) {
                           instance.skeletal.data(), instance.normal_matrices.data());
     } else {
       drive_skeleton_handles(d, instance.handles, instance.skeletal.data());
+    }
+    // The skin is evaluated in its normalised space (instance.h JointTransforms): joints
+    // scaled unlike the pose's reference scale thicken or thin what they drive.
+    const bool skin = instance.driver == Driver::skin;
+    if (skin && !instance.joints.uniform) {
+      scale_medial_radii(d, instance.joints, instance.radius, instance.scaled_radius.data());
+      instance.radius = instance.scaled_radius.data();
     }
     // 2. S' → M. Carried normals: the skin's per-vertex transform turns the rest normals; the
     // handle driver has none and takes them from the surface its skeletal motion predicts.
@@ -228,6 +241,10 @@ sf_result evaluate(sf_instance& instance, const sf_eval_options& options) {
     // 4. Refine and displace.
     displace(d, instance.control.data(), instance.skeletal.data(), instance.control_normal_sums.data(),
              instance.refined_positions.data(), instance.refined_normals.data(), with_normals, out);
+    // Back from the normalised space to the caller's.
+    instance.output_scale = skin ? instance.joints.scale : 1.0f;
+    if (instance.output_scale != 1.0f)
+      for (uint32_t v = 0; v < d.vertex_count; ++v) out.positions[v] *= instance.output_scale;
     // 5. The contact pass on the dense output (contact.h), when the caller turned it on.
     if (instance.contacts_enabled)
       resolve_contacts(instance.contact_mesh, instance.dense_positions.data(), d.vertex_count, instance.contact);
@@ -303,11 +320,9 @@ sf_result sf_instance_set_joint_matrices(sf_instance* instance, const float* mat
         return fail(instance, SF_ERROR_INVALID_ARGUMENT,
                     "sf_instance_set_joint_matrices: matrix %zu has a NaN or infinite element", j);
     }
-    for (size_t j = 0; j < count; ++j) {
-      glm::mat4 m;
-      read_element(matrices, stride, j, &m[0][0], 16);
-      prepare_joint(m, instance->joints.affine[j], instance->joints.dual_quaternion[j]);
-    }
+    glm::mat4* pose = instance->joints.matrices.data();
+    for (size_t j = 0; j < count; ++j) read_element(matrices, stride, j, &pose[j][0][0], 16);
+    prepare_joints(d, pose, instance->joints);
     instance->driver = Driver::skin;
     return SF_OK;
   });
@@ -481,7 +496,13 @@ sf_result sf_instance_write_coarse(const sf_instance* instance, uint32_t mesh, f
     // After an evaluation its S' and M live in previous_* (the incremental start).
     const glm::vec3* source =
         mesh == SF_COARSE_SKELETAL ? instance->previous_skeletal.data() : instance->previous_control.data();
-    write_stream(positions, stride, source, d.control_vertex_count);
+    // Held in the evaluation's normalised space (instance.h JointTransforms).
+    const float scale = instance->output_scale;
+    unsigned char* out = reinterpret_cast<unsigned char*>(positions);
+    for (uint32_t v = 0; v < d.control_vertex_count; ++v) {
+      const glm::vec3 p = source[v] * scale;
+      std::memcpy(out + v * stride, &p, sizeof p);
+    }
     return SF_OK;
   });
 }

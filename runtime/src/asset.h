@@ -41,6 +41,7 @@ struct Deformable {
         control_normals(CallbackAllocator<glm::vec3>(a)), control_indices(CallbackAllocator<uint32_t>(a)),
         skeletal_positions(CallbackAllocator<glm::vec3>(a)), medial_radius(CallbackAllocator<float>(a)),
         control_joints(CallbackAllocator<uint16_t>(a)), control_weights(CallbackAllocator<float>(a)),
+        joint_usage(CallbackAllocator<float>(a)),
         stencil_offsets(CallbackAllocator<uint32_t>(a)), stencil_indices(CallbackAllocator<uint32_t>(a)),
         stencil_weights(CallbackAllocator<float>(a)), stencil_group_rows(CallbackAllocator<uint32_t>(a)),
         stencil_group_lengths(CallbackAllocator<uint32_t>(a)), stencil_group_indices(CallbackAllocator<uint32_t>(a)),
@@ -80,6 +81,9 @@ struct Deformable {
   // Skin of the control/skeletal vertices: `influences` (4 × sets) per vertex, as above.
   Array<uint16_t> control_joints;
   Array<float> control_weights;
+  // Per joint: the sum of its weights over the control vertices (derived at load). Weighs each
+  // joint's scale in the pose's reference scale (instance.h JointTransforms::scale).
+  Array<float> joint_usage;
 
   // Loop stencils to level `subdivision_level` and the refined triangles. The loader renumbers
   // the refined vertices (stencil rows and triangle corners alike) in the order the dense

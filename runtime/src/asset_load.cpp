@@ -536,6 +536,9 @@ void load_deformable(const tinygltf::Model& model, const tinygltf::Value& json, 
                      deformable.dense_weights);
     store_influences(control_sets, deformable.control_vertex_count, deformable.influences, deformable.control_joints,
                      deformable.control_weights);
+    deformable.joint_usage.assign(deformable.joint_count, 0.0f);
+    for (size_t slot = 0; slot < deformable.control_weights.size(); ++slot)
+      deformable.joint_usage[deformable.control_joints[slot]] += deformable.control_weights[slot];
   }
   compute_missing_normals(deformable);
   build_joint_arcs(model, deformable);

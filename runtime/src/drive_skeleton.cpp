@@ -4,7 +4,58 @@
 #include "handles.h"
 #include "instance.h"
 
+#include <cmath>
+
 namespace skelform::runtime {
+
+void prepare_joints(const Deformable& d, const glm::mat4* matrices, JointTransforms& joints) {
+  const size_t count = d.joint_count;
+  // σ: the joints' scales weighted by their use in the control skin (in double: a sum over
+  // joints), falling back to the plain mean when no control vertex uses any joint.
+  double weighted = 0.0, usage = 0.0, plain = 0.0;
+  bool all_equal = true;
+  float first_scale = 0.0f;
+  for (size_t j = 0; j < count; ++j) {
+    const float s = std::cbrt(std::fabs(glm::determinant(glm::mat3(matrices[j]))));
+    joints.scale_ratio[j] = s;  // the scale itself until σ is known
+    if (j == 0) first_scale = s;
+    all_equal = all_equal && s == first_scale;
+    const double u = j < d.joint_usage.size() ? double(d.joint_usage[j]) : 0.0;
+    weighted += u * double(s);
+    usage += u;
+    plain += double(s);
+  }
+  double sigma = usage > 0.0 ? weighted / usage : (count > 0 ? plain / double(count) : 1.0);
+  // One scale for every joint: σ is that scale exactly, and every ratio is exactly 1.
+  if (all_equal && count > 0) sigma = double(first_scale);
+  // A degenerate pose (every joint collapsed to a point) or an overflow: evaluate unscaled.
+  if (!(sigma > 1e-30) || !std::isfinite(sigma)) sigma = 1.0;
+  const float scale = float(sigma);
+  joints.scale = scale;
+  joints.uniform = true;
+  const float inverse = 1.0f / scale;
+  for (size_t j = 0; j < count; ++j) {
+    prepare_joint(matrices[j], joints.affine[j], joints.dual_quaternion[j]);
+    const glm::mat4 normalised = scale == 1.0f ? matrices[j] : matrices[j] * inverse;
+    glm::mat4 m = normalised;
+    m[3][3] = 1.0f;
+    prepare_joint(m, joints.skin_affine[j], joints.skin_dual_quaternion[j]);
+    const float ratio = all_equal ? 1.0f : joints.scale_ratio[j] * inverse;
+    joints.scale_ratio[j] = std::isfinite(ratio) ? ratio : 1.0f;
+    joints.uniform = joints.uniform && joints.scale_ratio[j] == 1.0f;
+  }
+}
+
+void scale_medial_radii(const Deformable& d, const JointTransforms& joints, const float* radius_in, float* radius_out) {
+  const uint32_t influences = d.influences;
+  for (uint32_t v = 0; v < d.control_vertex_count; ++v) {
+    float ratio = 0.0f;
+    const size_t first = size_t(v) * influences;
+    for (uint32_t k = 0; k < influences; ++k)
+      ratio += d.control_weights[first + k] * joints.scale_ratio[d.control_joints[first + k]];
+    radius_out[v] = radius_in[v] * ratio;
+  }
+}
 
 void drive_skeleton_skin(const Deformable& d, const JointTransforms& joints, Blend blend, glm::vec3* skeletal_out,
                          glm::mat3* normal_matrices) {
@@ -24,9 +75,9 @@ void drive_skeleton_skin(const Deformable& d, const JointTransforms& joints, Ble
   for (uint32_t v = 0; v < count; ++v) {
     const size_t first = size_t(v) * influences;
     if (blend == Blend::linear)
-      blend_affine(joints.affine.data(), joint_index + first, weight + first, influences, blended);
+      blend_affine(joints.skin_affine.data(), joint_index + first, weight + first, influences, blended);
     else
-      blend_dual_quaternion(joints.dual_quaternion.data(), joint_index + first, weight + first, influences, blended);
+      blend_dual_quaternion(joints.skin_dual_quaternion.data(), joint_index + first, weight + first, influences, blended);
     skeletal_out[v] = transform_point(blended, d.skeletal_positions[v]);
     // Kept for the carried reconstruction: the rest normal N_i turns with the same blended
     // transform that moved S_i, so M = S' + d·N stays consistent with the skin.
@@ -68,7 +119,7 @@ void drive_skeleton_arcs(const Deformable& d, const JointTransforms& joints, con
     for (uint32_t k = 0; k < influences; ++k) {
       const uint16_t j = joint_index[first + k];
       const float w = (j == joint.parent || j == joint.child) ? (1.0f - pose.weight) * weight[first + k] : weight[first + k];
-      const float* m = joints.affine[j].m;
+      const float* m = joints.skin_affine[j].m;
       for (int c = 0; c < 12; ++c) blended[c] += w * m[c];
     }
     skeletal_out[v] = transform_point(blended, d.skeletal_positions[v]);

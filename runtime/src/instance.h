@@ -19,6 +19,7 @@
 #include "skin_blend.h"
 
 #include <glm/mat3x3.hpp>
+#include <glm/mat4x4.hpp>
 #include <glm/vec3.hpp>
 #include <glm/vec4.hpp>
 
@@ -34,12 +35,38 @@ enum class Driver : uint8_t {
 };
 
 // The skin as prepared from the caller's joint matrices (skin_blend.h).
+//
+// Scale. glTF joint matrices may carry a scale: Blender's centimetre armatures export a node
+// scale of 100, Mixamo's 0.01, and a rig may scale single joints. The medial radii, the
+// fairing's rest values and the displacements are lengths of the stored (rest) mesh, so
+// skelform evaluates in a normalised space: every joint matrix divided by the pose's
+// reference scale σ (`scale`: the mean of the joints' scales s_j = |det L_j|^(1/3), each
+// weighted by its use in the control skin), and the output multiplied by σ again. A pose
+// whose joints all carry one uniform scale s (any rotation × s) is then exactly the unscaled
+// pose's result, scaled by s. Joints whose scale differs from σ scale the medial radii of
+// the vertices they drive by their ratio s_j / σ (`scale_ratio`, blended by the skin), so a
+// uniformly scaled limb grows or shrinks in thickness as it does in length. Non-uniform
+// scale and shear have no single radius scale: |det|^(1/3) is the volume-preserving mean.
 struct JointTransforms {
   explicit JointTransforms(const AllocatorRef& a)
-      : affine(CallbackAllocator<JointAffine>(a)), dual_quaternion(CallbackAllocator<JointDualQuaternion>(a)) {}
+      : affine(CallbackAllocator<JointAffine>(a)), dual_quaternion(CallbackAllocator<JointDualQuaternion>(a)),
+        skin_affine(CallbackAllocator<JointAffine>(a)), skin_dual_quaternion(CallbackAllocator<JointDualQuaternion>(a)),
+        scale_ratio(CallbackAllocator<float>(a)), matrices(CallbackAllocator<glm::mat4>(a)) {}
+  // The caller's matrices as given: the LBS/DQS baselines and skelform's rigid parts.
   Array<JointAffine> affine;
   Array<JointDualQuaternion> dual_quaternion;
+  // The same divided by `scale`: what the skeletal mesh is driven with.
+  Array<JointAffine> skin_affine;
+  Array<JointDualQuaternion> skin_dual_quaternion;
+  Array<float> scale_ratio;  // s_j / σ per joint
+  Array<glm::mat4> matrices; // the caller's matrices, as last set
+  float scale = 1.0f;        // σ
+  bool uniform = true;       // every scale_ratio is exactly 1
 };
+
+// Prepares `joints` from column-major matrices (count = d.joint_count; finite, checked by the
+// caller): both the caller's and the normalised representations, σ and the ratios.
+void prepare_joints(const Deformable& d, const glm::mat4* matrices, JointTransforms& joints);
 
 // The current handle set (sf_instance_set_handle_set): the caller's original vertex ids and
 // targets. The system gets one displacement per caller handle; handles collapsing onto one
@@ -72,6 +99,9 @@ void drive_skeleton_arcs(const Deformable& d, const JointTransforms& joints, con
                          glm::vec3* skeletal_out, glm::mat3* normal_matrices, float* radius_out);
 // Handle driver: S' = S + the smooth displacement field of the current targets (handles.h).
 void drive_skeleton_handles(const Deformable& d, HandleState& handles, glm::vec3* skeletal_out);
+// Joints whose scale differs from the pose's reference (JointTransforms::scale_ratio): every
+// control vertex's radius times its skin's blend of the ratios. radius_in may be radius_out.
+void scale_medial_radii(const Deformable& d, const JointTransforms& joints, const float* radius_in, float* radius_out);
 
 // reconstruct.cpp. Carried normals, one step: M_i = S'_i + d_i·normalize(K_i·N_i), with d_i
 // from `radius` (the asset's medial radius, or the arcs' bulged one).
@@ -185,7 +215,9 @@ struct sf_instance {
   // read: arc_radius.data() after an arcs evaluation, else the asset's medial_radius.
   skelform::runtime::Array<skelform::runtime::ArcPose> arc_poses;
   skelform::runtime::Array<float> arc_radius;
+  skelform::runtime::Array<float> scaled_radius;  // radii of joints scaled unlike the pose (scale_medial_radii)
   const float* radius = nullptr;
+  float output_scale = 1.0f;  // σ of the last SF_METHOD_SKELFORM evaluation (1 for handles)
   bool has_previous = false;
 
   // Fairing (fair_stage.cpp): workspace, this evaluation's local frames of M, and the last

@@ -6,6 +6,9 @@
 #include "skelform/bake/mesh.h"
 
 #include <cstddef>
+#include <cstdint>
+#include <utility>
+#include <vector>
 
 namespace skelform::bake {
 
@@ -27,5 +30,9 @@ bool triangles_intersect(const Vec3& a0, const Vec3& a1, const Vec3& a2, const V
 // about linear in the triangle count for meshes of even triangle size (100K triangles in
 // well under a second). Deterministic; indices must be in range (unchecked).
 size_t count_self_intersections(const TriangleMesh& mesh);
+
+// The same pairs themselves, as (smaller, larger) triangle indices in increasing order, so
+// the pairs of two poses of one mesh can be compared (pairs added over the bind pose).
+std::vector<std::pair<uint32_t, uint32_t>> self_intersecting_pairs(const TriangleMesh& mesh);
 
 }  // namespace skelform::bake

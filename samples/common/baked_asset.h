@@ -1,0 +1,49 @@
+// Loading a model into the runtime the way the sample tools do: a file that already carries
+// the SKELFORM_skeletal_deformation extension is loaded as it is; any other skinned glTF is
+// baked in memory first with the baker library's defaults (what skelform-bake writes).
+#pragma once
+
+#include "skelform/bake/bake.h"
+#include "skelform/skelform.h"
+
+#include <functional>
+#include <string>
+
+namespace skelform::samples {
+
+// An sf_asset owned by value (destroyed with it). Movable, not copyable.
+struct AssetHandle {
+  sf_asset* asset = nullptr;
+  AssetHandle() = default;
+  AssetHandle(const AssetHandle&) = delete;
+  AssetHandle& operator=(const AssetHandle&) = delete;
+  AssetHandle(AssetHandle&& other) noexcept : asset(other.asset) { other.asset = nullptr; }
+  ~AssetHandle() { sf_asset_destroy(asset); }
+};
+
+struct LoadedAsset {
+  AssetHandle asset;
+  std::string bytes;          // the file as read
+  bool baked_here = false;    // true when the file had no extension and was baked in memory
+  double bake_seconds = 0.0;  // time of that bake
+  bake::BakeResult bake;      // its reports (empty when the file was already baked)
+};
+
+// Reads the whole file. Throws Failure (kExitIo) when it cannot.
+std::string read_file_bytes(const std::string& path);
+
+// True when the glTF bytes (.glb or .gltf) list the extension in extensionsUsed. Throws
+// Failure (kExitInvalidInput) for bytes that are no glTF.
+bool has_skelform_extension(const std::string& bytes, const std::string& name);
+
+// Reads `path` and loads it into the runtime, baking it in memory first when needed
+// (`progress` as BakeOptions::progress; may be empty). Throws Failure with the exit code of
+// the failure (the baker's and the loader's messages name the file) and bake::Error from the
+// in-memory bake.
+LoadedAsset load_or_bake(const std::string& path,
+                         const std::function<void(const char* stage, size_t deformable, size_t count)>& progress = {});
+
+// The exit code (cli.h) of a baker failure.
+int exit_code_of(const bake::Error& error);
+
+}  // namespace skelform::samples

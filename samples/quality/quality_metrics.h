@@ -1,0 +1,49 @@
+// The quality metrics of DESIGN.md "Metrics", on a posed dense mesh as the runtime writes it
+// (all primitives of a deformable, original vertex order), for skelform-quality and its tests.
+//
+// Topology is taken once, from the mesh as stored: vertices at bit-equal positions are one
+// (glTF splits vertices at seams and between primitives), degenerate and repeated triangles
+// are dropped. A posed mesh is read through that welding (each welded vertex at its first
+// original vertex's posed position), so pairs of triangles that share a position as modelled
+// stay adjacent in every pose.
+#pragma once
+
+#include <array>
+#include <cstddef>
+#include <cstdint>
+#include <utility>
+#include <vector>
+
+namespace skelform::samples {
+
+struct DenseTopology {
+  std::vector<uint32_t> welded_of_vertex;   // per original vertex
+  std::vector<uint32_t> vertex_of_welded;   // first original vertex of each welded vertex
+  std::vector<std::array<uint32_t, 3>> triangles;  // welded corners, non-degenerate, unique
+  // Every edge has exactly two triangles that use it in opposite directions: the mesh bounds
+  // a volume (it may still intersect itself).
+  bool closed = false;
+};
+
+// `positions`: 3 floats per original vertex; `triangles`: 3 original indices per triangle.
+DenseTopology dense_topology(const std::vector<float>& positions, const std::vector<uint32_t>& triangles);
+
+using TrianglePair = std::pair<uint32_t, uint32_t>;
+
+// Intersecting pairs of non-adjacent triangles (no shared welded vertex) of the posed mesh,
+// sorted; triangle indices into topology.triangles. Exact for the float input
+// (triangles_intersect in bake/self_intersection.h decides each candidate pair; its broad
+// phase misses none, which the tests check against every pair).
+std::vector<TrianglePair> intersecting_pairs(const DenseTopology& topology, const std::vector<float>& positions);
+
+// Pairs of `posed` that are not in `reference` (both sorted): the pairs a pose adds.
+size_t pairs_added(const std::vector<TrianglePair>& posed, const std::vector<TrianglePair>& reference);
+
+// Signed volume bounded by the welded triangles (divergence theorem, double); meaningful
+// when topology.closed.
+double enclosed_volume(const DenseTopology& topology, const std::vector<float>& positions);
+
+// Bounding-box diagonal of 3-float positions.
+double bounding_diagonal(const std::vector<float>& positions);
+
+}  // namespace skelform::samples
