@@ -368,7 +368,7 @@ int run(const Arguments& args) {
   file.fps = args.fps;
   struct Source {
     std::string name;
-    size_t animation;  // kBindPose: the rest pose of a model without animations
+    size_t animation;  // kStaticPose: the rest pose of a model without animations
     double start;
     std::vector<double> times;
   };
@@ -379,7 +379,7 @@ int run(const Arguments& args) {
   }
   if (sources.empty()) {
     progress(args.input + " has no animation: writing one frame, the rest pose");
-    sources.push_back({"rest pose", skelform::samples::kBindPose, 0.0, {0.0}});
+    sources.push_back({"rest pose", skelform::samples::kStaticPose, 0.0, {0.0}});
   }
 
   double skelform_ms = 0, lbs_ms = 0;
@@ -396,7 +396,7 @@ int run(const Arguments& args) {
       for (Character& c : characters) {
         if (c.info.skin >= 0) {
           const std::vector<float> matrices =
-              source.animation == skelform::samples::kBindPose
+              source.animation == skelform::samples::kStaticPose
                   ? identity_matrices(c.info.joint_count)
                   : gltf.joint_matrices(static_cast<size_t>(c.info.skin), source.animation, source.start + source.times[k]);
           c.skelform.check(sf_instance_set_joint_matrices(c.skelform.handle, matrices.data(), c.info.joint_count, 0),

@@ -385,7 +385,7 @@ void GltfAnimation::Impl::validate_animations(const AccessorReader& reader) {
 
 std::vector<Mat4> GltfAnimation::Impl::world_matrices(size_t animation, double time) const {
   if (!std::isfinite(time)) throw GltfError(name + ": the sampling time is not finite");
-  if (animation != kBindPose && animation >= animations.size())
+  if (animation != kStaticPose && animation >= animations.size())
     throw GltfError(name + ": animation " + std::to_string(animation) + " does not exist (the file has " +
                     std::to_string(animations.size()) + ")");
   // Local transforms: static TRS (or matrix), animated TRS components overriding.
@@ -397,7 +397,7 @@ std::vector<Mat4> GltfAnimation::Impl::world_matrices(size_t animation, double t
     rotation[n] = nodes[n].rotation;
     scale[n] = nodes[n].scale;
   }
-  if (animation != kBindPose) {
+  if (animation != kStaticPose) {
     const Animation& a = animations[animation];
     const double t = std::clamp(time, a.info.start, a.info.end);
     double value[4];
@@ -486,6 +486,30 @@ std::vector<float> GltfAnimation::joint_matrices(size_t skin, size_t animation, 
     if (!std::isfinite(v))  // finite doubles can still overflow float (absurd scales)
       throw GltfError(impl_->name + ": skin " + std::to_string(skin) + " gives non-finite joint matrices");
   return out;
+}
+
+std::vector<float> GltfAnimation::bind_pose_joint_matrices(size_t skin) const {
+  std::vector<float> matrices = joint_matrices(skin, kStaticPose, 0.0);
+  const size_t joints = matrices.size() / 16;
+  if (joints == 0) return matrices;
+  float largest = 1.0f;
+  for (int i = 0; i < 16; ++i) largest = std::max(largest, std::fabs(matrices[size_t(i)]));
+  bool common = true;
+  for (size_t j = 1; j < joints && common; ++j)
+    for (int i = 0; i < 16 && common; ++i)
+      common = std::fabs(matrices[16 * j + size_t(i)] - matrices[size_t(i)]) <= 1e-4f * largest;
+  if (common) return matrices;
+  for (size_t n = 0; n < impl_->model.nodes.size(); ++n) {
+    if (impl_->model.nodes[n].skin != static_cast<int>(skin) || impl_->model.nodes[n].mesh < 0) continue;
+    const std::vector<Mat4> world = impl_->world_matrices(kStaticPose, 0.0);
+    const double* p = glm::value_ptr(world[n]);
+    for (size_t j = 0; j < joints; ++j)
+      for (int i = 0; i < 16; ++i) matrices[16 * j + size_t(i)] = static_cast<float>(p[i]);
+    for (float v : matrices)
+      if (!std::isfinite(v)) throw GltfError(impl_->name + ": node " + std::to_string(n) + " has a non-finite transform");
+    return matrices;
+  }
+  return matrices;
 }
 
 std::vector<float> GltfAnimation::node_world_matrices(size_t animation, double time) const {

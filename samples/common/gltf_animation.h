@@ -53,9 +53,10 @@ struct AnimationInfo {
   double duration() const { return end - start; }
 };
 
-// Pass as `animation` to sample the bind (rest) pose: every node at its static
-// translation/rotation/scale or matrix, no animation applied.
-inline constexpr size_t kBindPose = std::numeric_limits<size_t>::max();
+// Pass as `animation` to sample the static pose: every node at its static
+// translation/rotation/scale or matrix, no animation applied. It is the bind pose in some
+// files and a posed skeleton in others (bind_pose_joint_matrices).
+inline constexpr size_t kStaticPose = std::numeric_limits<size_t>::max();
 
 // A loaded, validated glTF document. Immutable after loading; any number of threads may
 // sample it at once. Movable, not copyable.
@@ -80,11 +81,20 @@ class GltfAnimation {
   const std::vector<AnimationInfo>& animations() const;
 
   // Joint matrices of `skin` with `animation` sampled at `time` seconds (clamped to the
-  // animation's [start, end]), or of the bind pose when animation == kBindPose (time is then
-  // ignored). 16 floats per joint, column-major, skin joint order. Throws GltfError for an
+  // animation's [start, end]), or of the static pose when animation == kStaticPose (time is
+  // then ignored). 16 floats per joint, column-major, skin joint order. Throws GltfError for an
   // out-of-range skin/animation or a non-finite time.
   std::vector<float> joint_matrices(size_t skin, size_t animation, double time) const;
-  std::vector<float> bind_pose_joint_matrices(size_t skin) const { return joint_matrices(skin, kBindPose, 0.0); }
+  // The bind pose in the scene: the pose the inverse bind matrices were taken in, where every
+  // joint matrix is one transform G and skinning gives the mesh as stored, placed by G (DESIGN.md
+  // "Metrics" measures against it). G is the static pose's joint matrix when every joint has
+  // the same one there (the static pose is the bind pose: the Khronos samples). Otherwise the
+  // static pose is a posed skeleton (Blender exports the armature's current pose, not its rest
+  // pose: in the Quaternius characters, joints turn up to ~80 degrees from bind) and G is the
+  // static world transform of the node that instances the skin's mesh, which glTF ignores for
+  // skinning because at bind the joints put the mesh exactly there; with no such node, the
+  // static pose itself.
+  std::vector<float> bind_pose_joint_matrices(size_t skin) const;
 
   // Global transform of every node (16 floats each, column-major, node order) for the same
   // pose selection; the hierarchy composition the joint matrices are built from.

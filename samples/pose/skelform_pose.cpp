@@ -1,6 +1,6 @@
 // skelform-pose: one posed frame of a baked asset, for pipelines and checks.
 //
-//   skelform-pose BAKED.glb (--rest | --bind | --anim I --time T | --handles H.json)
+//   skelform-pose BAKED.glb (--rest | --bind | --static | --anim I --time T | --handles H.json)
 //                 [--method skelform|lbs|dqs] [--deformable K] -o OUT.obj|OUT.glb
 //
 // Everything goes through the runtime's C API (skelform.h) as an engine would use it: load
@@ -46,7 +46,7 @@ using skelform::samples::kExitUsage;
 using skelform::samples::lowercase_extension;
 
 const char* const kUsage =
-    "usage: skelform-pose BAKED.glb (--rest | --bind | --anim I --time T | --handles H.json)\n"
+    "usage: skelform-pose BAKED.glb (--rest | --bind | --static | --anim I --time T | --handles H.json)\n"
     "                     [--method skelform|lbs|dqs] [--deformable K] -o OUT.obj|OUT.glb\n"
     "\n"
     "Poses a model baked by skelform-bake through the skelform runtime and writes the posed\n"
@@ -56,10 +56,13 @@ const char* const kUsage =
     "Pose (exactly one):\n"
     "  --rest              the runtime's rest pose: identity joint matrices, the mesh exactly\n"
     "                      as stored in the file\n"
-    "  --bind              the skeleton at its static node transforms (jointWorld x inverseBind\n"
-    "                      with no animation): differs from --rest where the skeleton's parent\n"
-    "                      nodes carry a transform the inverse binds do not undo (CesiumMan's\n"
-    "                      Z-up to Y-up rotation), which --anim frames include as well\n"
+    "  --bind              the bind pose in the scene: every joint matrix the one transform\n"
+    "                      that places the mesh as stored (the static node pose when all its\n"
+    "                      joints agree, else the skinned node's world transform); differs\n"
+    "                      from --rest by the armature's rotation and scale (CesiumMan's Z-up\n"
+    "                      to Y-up turn, Blender's scale of 100), which --anim frames include\n"
+    "  --static            the skeleton at its static node transforms, no animation (a posed\n"
+    "                      skeleton in some exports)\n"
     "  --anim I --time T   animation I of the file (0-based) at T seconds, glTF time, clamped\n"
     "                      to the animation's range\n"
     "  --handles H.json    free-form handles (docs/handles-json.md):\n"
@@ -82,6 +85,7 @@ struct Arguments {
   std::string output;
   bool rest = false;
   bool bind = false;
+  bool static_pose = false;
   std::optional<size_t> animation;
   std::optional<double> time;
   std::string handles;
@@ -118,6 +122,7 @@ Arguments parse_arguments(int argc, char** argv) {
     if (arg == "-o" || arg == "--output") args.output = value();
     else if (arg == "--rest") args.rest = true;
     else if (arg == "--bind") args.bind = true;
+    else if (arg == "--static") args.static_pose = true;
     else if (arg == "--anim") args.animation = parse_index(arg, value());
     else if (arg == "--time") args.time = parse_time(value());
     else if (arg == "--handles") args.handles = value();
@@ -135,8 +140,9 @@ Arguments parse_arguments(int argc, char** argv) {
   if (positional.size() != 1)
     fail(kExitUsage, "expected one baked input file, got " + std::to_string(positional.size()));
   args.input = positional[0];
-  const int poses = int(args.rest) + int(args.bind) + int(args.animation.has_value()) + int(!args.handles.empty());
-  if (poses != 1) fail(kExitUsage, "choose exactly one of --rest, --bind, --anim I --time T, --handles H.json");
+  const int poses = int(args.rest) + int(args.bind) + int(args.static_pose) + int(args.animation.has_value()) +
+                    int(!args.handles.empty());
+  if (poses != 1) fail(kExitUsage, "choose exactly one of --rest, --bind, --static, --anim I --time T, --handles H.json");
   if (args.animation.has_value() != args.time.has_value()) fail(kExitUsage, "--anim and --time go together");
   if (args.output.empty()) fail(kExitUsage, "missing -o OUTPUT");
   const std::string extension = lowercase_extension(args.output);
@@ -324,7 +330,7 @@ int run(const Arguments& args) {
                      "sf_instance_set_handle_targets");
       pose_name = std::to_string(set.vertices.size()) + " handles";
     } else if (info.skin < 0) {
-      if (args.animation || args.bind)
+      if (args.animation || args.bind || args.static_pose)
         fail(kExitInvalidInput, "deformable " + std::to_string(instance.deformable) + " has no skin: pose it with --handles");
       pose_name = "rest";  // an unskinned deformable is created at rest
     } else {
@@ -337,6 +343,9 @@ int run(const Arguments& args) {
       } else if (args.bind) {
         matrices = gltf.bind_pose_joint_matrices(static_cast<size_t>(info.skin));
         pose_name = "bind";
+      } else if (args.static_pose) {
+        matrices = gltf.joint_matrices(static_cast<size_t>(info.skin), skelform::samples::kStaticPose, 0.0);
+        pose_name = "static";
       } else {
         matrices = gltf.joint_matrices(static_cast<size_t>(info.skin), *args.animation, *args.time);
         pose_name = "'" + gltf.animations()[*args.animation].name + "' at " + std::to_string(*args.time) + " s";

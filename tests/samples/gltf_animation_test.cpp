@@ -14,7 +14,7 @@
 
 using skelform::samples::GltfAnimation;
 using skelform::samples::GltfError;
-using skelform::samples::kBindPose;
+using skelform::samples::kStaticPose;
 using nlohmann::json;
 
 namespace {
@@ -110,7 +110,7 @@ TEST_CASE("a document without nodes or animations loads; out-of-range requests t
   const GltfAnimation gltf = builder.load();
   CHECK(gltf.node_count() == 0);
   CHECK(gltf.animations().empty());
-  CHECK_THROWS_AS(gltf.joint_matrices(0, kBindPose, 0.0), GltfError);
+  CHECK_THROWS_AS(gltf.joint_matrices(0, kStaticPose, 0.0), GltfError);
   CHECK_THROWS_AS(gltf.node_world_matrices(0, 0.0), GltfError);
   CHECK_THROWS_AS(GltfAnimation::load_memory("not a gltf", "garbage.gltf"), GltfError);
   CHECK_THROWS_AS(GltfAnimation::load_memory(std::string("glTF\2\0\0\0", 8), "short.glb"), GltfError);
@@ -234,7 +234,7 @@ TEST_CASE("the hierarchy composes parent × local, with TRS as T × R × S and m
       {{"matrix", {1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 3, 1}}},
   };
   const GltfAnimation gltf = builder.load();
-  const std::vector<float> world = gltf.node_world_matrices(kBindPose, 0.0);
+  const std::vector<float> world = gltf.node_world_matrices(kStaticPose, 0.0);
   // Node 1's origin: parent translation + parent rotation of (scale 2 × (1, 0, 0)) = (1, 2, 0).
   CHECK(near(world[16 + 12], 1.0));
   CHECK(near(world[16 + 13], 2.0));
@@ -403,7 +403,7 @@ TEST_CASE("real characters: bind pose is one common rigid transform (identity wh
     if (model.bind_is_identity) CHECK(from_identity < 1e-4);
     else CHECK(from_identity > 0.5);  // documents the rotated files above
     if (model.bind_is_skinned_node) {
-      const std::vector<float> world = gltf.node_world_matrices(kBindPose, 0.0);
+      const std::vector<float> world = gltf.node_world_matrices(kStaticPose, 0.0);
       for (size_t n = 0; n < gltf.node_count(); ++n) {
         if (gltf.node_skin(n) != 0) continue;
         double worst = 0;
