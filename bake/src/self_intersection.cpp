@@ -2,6 +2,8 @@
 // narrow phase in double.
 #include "skelform/bake/self_intersection.h"
 
+#include "triangle_intersection.h"
+
 #include <glm/geometric.hpp>
 
 #include <algorithm>
@@ -11,15 +13,6 @@
 
 namespace skelform::bake {
 namespace {
-
-// Does `axis` separate the two triangles (their projections' intervals do not meet)?
-bool separated_along(const Vec3& axis, const std::array<Vec3, 3>& a, const std::array<Vec3, 3>& b) {
-  const double pa0 = glm::dot(axis, a[0]), pa1 = glm::dot(axis, a[1]), pa2 = glm::dot(axis, a[2]);
-  const double pb0 = glm::dot(axis, b[0]), pb1 = glm::dot(axis, b[1]), pb2 = glm::dot(axis, b[2]);
-  const double min_a = std::min({pa0, pa1, pa2}), max_a = std::max({pa0, pa1, pa2});
-  const double min_b = std::min({pb0, pb1, pb2}), max_b = std::max({pb0, pb1, pb2});
-  return max_a < min_b || max_b < min_a;
-}
 
 struct Box {
   Vec3 min, max;
@@ -34,30 +27,7 @@ bool boxes_overlap(const Box& p, const Box& q) {
 
 bool triangles_intersect(const Vec3& a0, const Vec3& a1, const Vec3& a2, const Vec3& b0, const Vec3& b1,
                          const Vec3& b2) {
-  // Translate to a common origin: the projections then lose less to cancellation.
-  const Vec3 origin = a0;
-  const std::array<Vec3, 3> a{Vec3(0.0), a1 - origin, a2 - origin};
-  const std::array<Vec3, 3> b{b0 - origin, b1 - origin, b2 - origin};
-  const std::array<Vec3, 3> edge_a{a[1] - a[0], a[2] - a[1], a[0] - a[2]};
-  const std::array<Vec3, 3> edge_b{b[1] - b[0], b[2] - b[1], b[0] - b[2]};
-  const Vec3 normal_a = glm::cross(edge_a[0], edge_a[1]);
-  const Vec3 normal_b = glm::cross(edge_b[0], edge_b[1]);
-
-  // Two convex polytopes are disjoint iff a separating axis exists among the face normals and
-  // edge-edge cross products; for flat (2-D) polytopes the in-plane edge normals are the
-  // "faces" too. A zero axis (parallel edges, degenerate triangle) separates nothing: skip.
-  auto separates = [&](const Vec3& axis) {
-    return glm::dot(axis, axis) > 0.0 && separated_along(axis, a, b);
-  };
-  if (separates(normal_a) || separates(normal_b)) return false;
-  for (const Vec3& ea : edge_a)
-    for (const Vec3& eb : edge_b)
-      if (separates(glm::cross(ea, eb))) return false;
-  for (const Vec3& ea : edge_a)
-    if (separates(glm::cross(normal_a, ea))) return false;
-  for (const Vec3& eb : edge_b)
-    if (separates(glm::cross(normal_b, eb))) return false;
-  return true;
+  return geometry::triangles_intersect(a0, a1, a2, b0, b1, b2);
 }
 
 namespace {
