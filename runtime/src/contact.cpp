@@ -68,7 +68,7 @@ struct CellRange {
 // them, and the triangle tests at the current positions.
 class Grid {
  public:
-  Grid(const ContactMesh& mesh, ContactWorkspace& ws) : mesh_(mesh), ws_(ws), x_(ws.positions.data()) {}
+  Grid(const ContactMesh& mesh, float gap, ContactWorkspace& ws) : mesh_(mesh), ws_(ws), x_(ws.positions.data()), gap_(gap) {}
 
   // Buckets every triangle by its box now. `pad` is how far a vertex may move from here during
   // the pass: gather() looks that much further. False when a position is not finite (the pass
@@ -276,7 +276,7 @@ class Grid {
     if (!(length > 0.0f)) return;
     const glm::vec3 unit = n / length;
     const float distance = glm::dot(x_[v] - x_[q[0]], unit);
-    if (distance < mesh_.gap) push += 0.5f * (mesh_.gap - distance) * unit;
+    if (distance < gap_) push += 0.5f * (gap_ - distance) * unit;
   }
   // Do the normals of the triangles in entries [begin, end) all lie within 60 degrees of their
   // mean (for_each_pair)?
@@ -338,6 +338,7 @@ class Grid {
   const ContactMesh& mesh_;
   ContactWorkspace& ws_;
   const glm::vec3* x_;
+  float gap_;
   glm::vec3 origin_{0.0f};
   float inverse_cell_ = 1.0f, pad_ = 0.0f;
   int dims_[3] = {1, 1, 1};
@@ -406,6 +407,29 @@ ContactMesh build_contact_mesh(const glm::vec3* rest_positions, uint32_t vertex_
   const float mean_edge = mesh.triangle_count ? float(edge_sum / (3.0 * mesh.triangle_count)) : 0.0f;
   mesh.gap = kContactGap * mean_edge;
   mesh.cap = kContactCap * mean_edge;
+  // Closed: every directed edge once and its reverse once (sorted directed edges, each with
+  // its reverse found by binary search).
+  Array<uint64_t> edges{CallbackAllocator<uint64_t>(allocator)};
+  edges.reserve(mesh.triangles.size());
+  for (uint32_t t = 0; t < mesh.triangle_count; ++t)
+    for (int k = 0; k < 3; ++k)
+      edges.push_back(uint64_t(mesh.triangles[3 * size_t(t) + k]) << 32 | mesh.triangles[3 * size_t(t) + (k + 1) % 3]);
+  std::sort(edges.begin(), edges.end());
+  bool closed = mesh.triangle_count > 0;
+  for (size_t i = 0; i < edges.size() && closed; ++i) {
+    if (i + 1 < edges.size() && edges[i + 1] == edges[i]) closed = false;
+    const uint64_t reverse = (edges[i] << 32) | (edges[i] >> 32);
+    if (!std::binary_search(edges.begin(), edges.end(), reverse)) closed = false;
+  }
+  mesh.closed = closed;
+  double six_volume = 0.0;
+  for (uint32_t t = 0; t < mesh.triangle_count; ++t) {
+    const uint32_t* q = mesh.triangles.data() + 3 * size_t(t);
+    const glm::dvec3 a(rest_positions[mesh.representative[q[0]]]), b(rest_positions[mesh.representative[q[1]]]),
+        c(rest_positions[mesh.representative[q[2]]]);
+    six_volume += glm::dot(a, glm::cross(b, c));
+  }
+  mesh.rest_volume = six_volume / 6.0;
   return mesh;
 }
 
@@ -427,14 +451,16 @@ ContactWorkspace make_contact_workspace(const ContactMesh& mesh, const Allocator
   return ws;
 }
 
-ContactStats resolve_contacts(const ContactMesh& mesh, glm::vec3* dense_positions, uint32_t dense_vertex_count,
-                              ContactWorkspace& ws) {
+ContactStats resolve_contacts(const ContactMesh& mesh, float scale, glm::vec3* dense_positions,
+                              uint32_t dense_vertex_count, ContactWorkspace& ws) {
   ContactStats stats;
+  // The pass's lengths follow the output's scale (instance.h JointTransforms).
+  const float gap = mesh.gap * scale, cap = mesh.cap * scale;
   if (mesh.triangle_count < 2 || dense_vertex_count != mesh.weld.size()) return stats;
   glm::vec3* x = ws.positions.data();
   for (uint32_t w = 0; w < mesh.vertex_count; ++w) x[w] = dense_positions[mesh.representative[w]];
-  Grid grid(mesh, ws);
-  if (!grid.build(mesh.cap)) return stats;  // a non-finite position: leave the output as it is
+  Grid grid(mesh, gap, ws);
+  if (!grid.build(cap)) return stats;  // a non-finite position: leave the output as it is
   // Detection: the corners of every intersecting pair become active.
   std::fill(ws.state.begin(), ws.state.end(), uint8_t(0));
   ws.active.clear();
@@ -461,13 +487,13 @@ ContactStats resolve_contacts(const ContactMesh& mesh, glm::vec3* dense_position
     bool any = false;
     for (uint32_t v : ws.active) {
       // v moves at most 2 caps from where it is (its total motion stays within a cap of its start).
-      grid.gather(v, 2.0f * mesh.cap);
+      grid.gather(v, 2.0f * cap);
       glm::vec3 push(0.0f);
       const uint32_t before = grid.pairs_around(v, &push);
       if (before == 0 || !(glm::dot(push, push) > 0.0f)) continue;
       glm::vec3 total = x[v] + push - ws.start[v];
       const float length = glm::length(total);
-      if (length > mesh.cap) total *= mesh.cap / length;
+      if (length > cap) total *= cap / length;
       glm::vec3 step = ws.start[v] + total - x[v];
       const glm::vec3 old = x[v];
       bool accepted = false;

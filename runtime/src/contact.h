@@ -38,6 +38,10 @@ struct ContactMesh {
   Array<uint32_t> incident;           // triangles around each welded vertex, ascending
   float gap = 0.0f;                   // clearance a push aims for: kContactGap mean rest edges
   float cap = 0.0f;                   // largest total move of a vertex: kContactCap mean rest edges
+  // Every edge has exactly two triangles using it in opposite directions: the welded mesh
+  // bounds a volume, `rest_volume` (signed, divergence theorem, in the stored mesh's units).
+  bool closed = false;
+  double rest_volume = 0.0;
 };
 
 constexpr uint32_t kContactSweeps = 4;  // passes over the active vertices, at most
@@ -81,7 +85,7 @@ struct ContactStats {
 };
 
 // The pass on `dense_positions` (per dense vertex, in place). Deterministic.
-ContactStats resolve_contacts(const ContactMesh& mesh, glm::vec3* dense_positions, uint32_t dense_vertex_count,
+ContactStats resolve_contacts(const ContactMesh& mesh, float scale, glm::vec3* dense_positions, uint32_t dense_vertex_count,
                               ContactWorkspace& workspace);
 
 }  // namespace skelform::runtime

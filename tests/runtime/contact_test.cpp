@@ -83,7 +83,7 @@ struct Pass {
       : mesh(build_contact_mesh(scene.positions.data(), uint32_t(scene.positions.size()), scene.triangles.data(),
                                 scene.triangles.size() / 3, {})),
         workspace(make_contact_workspace(mesh, {})) {}
-  ContactStats run(std::vector<glm::vec3>& x) { return resolve_contacts(mesh, x.data(), uint32_t(x.size()), workspace); }
+  ContactStats run(std::vector<glm::vec3>& x) { return resolve_contacts(mesh, 1.0f, x.data(), uint32_t(x.size()), workspace); }
 };
 
 }  // namespace
