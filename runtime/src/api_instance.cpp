@@ -28,7 +28,7 @@ sf_instance::sf_instance(const sf_asset& owner, const Deformable& d)
       arc_poses(CallbackAllocator<ArcPose>(owner.allocator)), arc_radius(CallbackAllocator<float>(owner.allocator)),
       scaled_radius(CallbackAllocator<float>(owner.allocator)),
       fairing(owner.allocator),
-      contact_mesh(owner.allocator), contact(owner.allocator),
+      contact(owner.allocator),
       fairing_frames(CallbackAllocator<glm::mat3>(owner.allocator)),
       fairing_offset(CallbackAllocator<glm::vec3>(owner.allocator)),
       fairing_start(CallbackAllocator<glm::vec3>(owner.allocator)),
@@ -41,7 +41,13 @@ sf_instance::sf_instance(const sf_asset& owner, const Deformable& d)
       refined_normals(CallbackAllocator<glm::vec3>(owner.allocator)),
       dense_positions(CallbackAllocator<glm::vec3>(owner.allocator)),
       dense_normals(CallbackAllocator<glm::vec3>(owner.allocator)),
-      dense_tangents(CallbackAllocator<glm::vec4>(owner.allocator)) {
+      dense_tangents(CallbackAllocator<glm::vec4>(owner.allocator)),
+      skelform_positions(CallbackAllocator<glm::vec3>(owner.allocator)),
+      skelform_normals(CallbackAllocator<glm::vec3>(owner.allocator)),
+      skelform_tangents(CallbackAllocator<glm::vec4>(owner.allocator)),
+      lbs_positions(CallbackAllocator<glm::vec3>(owner.allocator)),
+      lbs_normals(CallbackAllocator<glm::vec3>(owner.allocator)),
+      lbs_tangents(CallbackAllocator<glm::vec4>(owner.allocator)), guard(owner.allocator) {
   // Every buffer of every stage, sized once: evaluation and output never allocate.
   JointAffine identity_affine;
   JointDualQuaternion identity_dq;
@@ -84,6 +90,17 @@ sf_instance::sf_instance(const sf_asset& owner, const Deformable& d)
   bool any_tangents = false;
   for (const PrimitiveRecord& p : d.primitives) any_tangents = any_tangents || p.has_tangents;
   if (any_tangents) dense_tangents.resize(d.vertex_count);
+  if (d.influences > 0 && d.joint_count > 0) {
+    skelform_positions.resize(d.vertex_count);
+    skelform_normals.resize(d.vertex_count);
+    lbs_positions.resize(d.vertex_count);
+    lbs_normals.resize(d.vertex_count);
+    if (any_tangents) {
+      skelform_tangents.resize(d.vertex_count);
+      lbs_tangents.resize(d.vertex_count);
+    }
+    guard = make_guard_workspace(d.welded, owner.allocator);
+  }
 }
 
 sf_instance::~sf_instance() { handle_system_destroy(handles.system, allocator); }
@@ -238,16 +255,28 @@ sf_result evaluate(sf_instance& instance, const sf_eval_options& options) {
     fairing.params.grid_size = options.intersection_grid;
     fairing.from_rest = (options.flags & SF_EVAL_FROM_REST) != 0 || !instance.has_previous;
     fair_stage(instance, fairing);
-    // 4. Refine and displace.
+    // 4. Refine and displace: the output itself, or (skin driver) skelform's share of it.
+    const bool blended = skin && !instance.lbs_positions.empty();
+    const DenseOutput own = blended ? DenseOutput{instance.skelform_positions.data(), instance.skelform_normals.data(),
+                                                  instance.skelform_tangents.empty() ? nullptr
+                                                                                      : instance.skelform_tangents.data()}
+                                    : out;
     displace(d, instance.control.data(), instance.skeletal.data(), instance.control_normal_sums.data(),
-             instance.refined_positions.data(), instance.refined_normals.data(), with_normals, out);
+             instance.refined_positions.data(), instance.refined_normals.data(), with_normals, own);
     // Back from the normalised space to the caller's.
     instance.output_scale = skin ? instance.joints.scale : 1.0f;
     if (instance.output_scale != 1.0f)
-      for (uint32_t v = 0; v < d.vertex_count; ++v) out.positions[v] *= instance.output_scale;
+      for (uint32_t v = 0; v < d.vertex_count; ++v) own.positions[v] *= instance.output_scale;
+    // 5. LBS where LBS is exact, and never an intersection LBS does not have (lbs_guard.h).
+    if (blended) {
+      const DenseOutput lbs{instance.lbs_positions.data(), instance.lbs_normals.data(),
+                            instance.lbs_tangents.empty() ? nullptr : instance.lbs_tangents.data()};
+      dense_skinning(d, instance.joints, Blend::linear, with_normals, lbs);
+      guard_and_blend(d, d.welded, instance.output_scale, own, lbs, with_normals, out, instance.guard);
+    }
     // 5. The contact pass on the dense output (contact.h), when the caller turned it on.
     if (instance.contacts_enabled)
-      resolve_contacts(instance.contact_mesh, instance.dense_positions.data(), d.vertex_count, instance.contact);
+      resolve_contacts(d.welded, instance.output_scale, instance.dense_positions.data(), d.vertex_count, instance.contact);
     // This evaluation's S' and M are the next incremental evaluation's start. Swapping
     // vectors of one allocator moves pointers only: no allocation.
     instance.previous_skeletal.swap(instance.skeletal);
@@ -387,17 +416,10 @@ sf_result sf_instance_set_contacts(sf_instance* instance, uint32_t enabled) {
     if (enabled > 1)
       return fail(instance, SF_ERROR_INVALID_ARGUMENT, "sf_instance_set_contacts: enabled is %u, not 0 or 1", enabled);
     if (enabled && !instance->contacts_enabled) {
-      // Built here, for the instances that use the pass, not at load for every asset. Both
-      // are complete before they are installed: a failure leaves the pass off.
-      const Deformable& d = *instance->deformable;
-      ContactMesh mesh = build_contact_mesh(d.rest_positions.data(), d.vertex_count, d.dense_triangles.data(),
-                                            d.dense_triangles.size() / 3, instance->allocator);
-      ContactWorkspace workspace = make_contact_workspace(mesh, instance->allocator);
-      instance->contact_mesh = std::move(mesh);
-      instance->contact = std::move(workspace);
+      // The pass's scratch is made here, for the instances that use it; a failure leaves it off.
+      instance->contact = make_contact_workspace(instance->deformable->welded, instance->allocator);
     } else if (!enabled && instance->contacts_enabled) {
-      instance->contact_mesh = ContactMesh(instance->allocator);  // frees the buffers
-      instance->contact = ContactWorkspace(instance->allocator);
+      instance->contact = ContactWorkspace(instance->allocator);  // frees the buffers
     }
     instance->contacts_enabled = enabled != 0;
     return SF_OK;

@@ -3,6 +3,7 @@
 // by the conventions below, so the hot loops read them without indirection.
 #pragma once
 
+#include "contact.h"
 #include "fair.h"
 #include "joint_arcs.h"
 #include "memory.h"
@@ -37,11 +38,12 @@ struct Deformable {
       : primitives(CallbackAllocator<PrimitiveRecord>(a)), rest_positions(CallbackAllocator<glm::vec3>(a)),
         rest_normals(CallbackAllocator<glm::vec3>(a)), rest_tangents(CallbackAllocator<glm::vec4>(a)),
         dense_triangles(CallbackAllocator<uint32_t>(a)), dense_joints(CallbackAllocator<uint16_t>(a)),
-        dense_weights(CallbackAllocator<float>(a)), control_positions(CallbackAllocator<glm::vec3>(a)),
+        dense_weights(CallbackAllocator<float>(a)),
+        skelform_weight(CallbackAllocator<float>(a)), control_positions(CallbackAllocator<glm::vec3>(a)),
         control_normals(CallbackAllocator<glm::vec3>(a)), control_indices(CallbackAllocator<uint32_t>(a)),
         skeletal_positions(CallbackAllocator<glm::vec3>(a)), medial_radius(CallbackAllocator<float>(a)),
         control_joints(CallbackAllocator<uint16_t>(a)), control_weights(CallbackAllocator<float>(a)),
-        joint_usage(CallbackAllocator<float>(a)),
+        joint_usage(CallbackAllocator<float>(a)), control_rigid(CallbackAllocator<uint8_t>(a)),
         stencil_offsets(CallbackAllocator<uint32_t>(a)), stencil_indices(CallbackAllocator<uint32_t>(a)),
         stencil_weights(CallbackAllocator<float>(a)), stencil_group_rows(CallbackAllocator<uint32_t>(a)),
         stencil_group_lengths(CallbackAllocator<uint32_t>(a)), stencil_group_indices(CallbackAllocator<uint32_t>(a)),
@@ -51,7 +53,7 @@ struct Deformable {
         binding_corners(CallbackAllocator<uint32_t>(a)), rest_normal_coords(CallbackAllocator<glm::vec3>(a)),
         rest_tangent_coords(CallbackAllocator<glm::vec3>(a)), handle_control_vertex(CallbackAllocator<uint32_t>(a)),
         arc_joints(CallbackAllocator<ArcJoint>(a)), arc_vertices(CallbackAllocator<ArcVertex>(a)),
-        fairing_topology(a), fairing_rest(a) {}
+        fairing_topology(a), fairing_rest(a), welded(a) {}
 
   int32_t mesh = -1;
   int32_t node = -1;
@@ -70,6 +72,9 @@ struct Deformable {
   uint32_t influences = 0;
   Array<uint16_t> dense_joints;
   Array<float> dense_weights;
+  // The skelform weight of every dense vertex (docs/SKELFORM_skeletal_deformation.md): the
+  // output is LBS + w·(skelform − LBS), so 0 is exactly LBS (rigid parts), 1 is skelform.
+  Array<float> skelform_weight;
 
   // Control mesh M and skeletal mesh S at rest: M = S + d·N (paper eq. (1)).
   uint32_t control_vertex_count = 0;
@@ -84,6 +89,9 @@ struct Deformable {
   // Per joint: the sum of its weights over the control vertices (derived at load). Weighs each
   // joint's scale in the pose's reference scale (instance.h JointTransforms::scale).
   Array<float> joint_usage;
+  // Per control vertex: 1 where its control skin is a single joint's (skelform weight 0): the
+  // fairing keeps it where the skin puts it, so the flows bend only the blend zones.
+  Array<uint8_t> control_rigid;
 
   // Loop stencils to level `subdivision_level` and the refined triangles. The loader renumbers
   // the refined vertices (stencil rows and triangle corners alike) in the order the dense
@@ -146,6 +154,10 @@ struct Deformable {
   FairingTopology fairing_topology;
   FairingRest fairing_rest;
   bool fairing_supported = false;
+
+  // The dense mesh welded by rest position (contact.h), derived at load: the LBS guard
+  // (lbs_guard.h) and the contact pass read its triangles.
+  ContactMesh welded;
 };
 
 }  // namespace skelform::runtime

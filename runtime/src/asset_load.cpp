@@ -9,6 +9,7 @@
 #include "extension_layout.h"
 #include "joint_arcs.h"
 #include "refine.h"
+#include "skelform_weight.h"
 #include "skin_blend.h"
 
 #include <tiny_gltf.h>
@@ -534,8 +535,19 @@ void load_deformable(const tinygltf::Model& model, const tinygltf::Value& json, 
     deformable.influences = static_cast<uint32_t>(4 * sets);
     store_influences(dense_sets, deformable.vertex_count, deformable.influences, deformable.dense_joints,
                      deformable.dense_weights);
+    deformable.skelform_weight.resize(deformable.vertex_count);
+    for (uint32_t v = 0; v < deformable.vertex_count; ++v)
+      deformable.skelform_weight[v] = skin::skelform_weight(deformable.dense_joints.data() + size_t{v} * deformable.influences,
+                                                            deformable.dense_weights.data() + size_t{v} * deformable.influences,
+                                                            deformable.influences);
     store_influences(control_sets, deformable.control_vertex_count, deformable.influences, deformable.control_joints,
                      deformable.control_weights);
+    deformable.control_rigid.resize(deformable.control_vertex_count);
+    for (uint32_t v = 0; v < deformable.control_vertex_count; ++v)
+      deformable.control_rigid[v] =
+          skin::skelform_weight(deformable.control_joints.data() + size_t{v} * deformable.influences,
+                                deformable.control_weights.data() + size_t{v} * deformable.influences,
+                                deformable.influences) == 0.0f;
     deformable.joint_usage.assign(deformable.joint_count, 0.0f);
     for (size_t slot = 0; slot < deformable.control_weights.size(); ++slot)
       deformable.joint_usage[deformable.control_joints[slot]] += deformable.control_weights[slot];
@@ -744,6 +756,9 @@ sf_asset* load_asset(const unsigned char* bytes, size_t size, const std::string&
     load_deformable(model, deformables->Get(static_cast<int>(d)), prefix + " deformable " + std::to_string(d), deformable);
     derive_rest_data(deformable);
     derive_fairing_data(deformable, allocator);
+    deformable.welded = build_contact_mesh(deformable.rest_positions.data(), deformable.vertex_count,
+                                           deformable.dense_triangles.data(), deformable.dense_triangles.size() / 3,
+                                           allocator);
   }
   return asset.release();
 }

@@ -78,6 +78,10 @@ void fair_stage(sf_instance& instance, const FairStageOptions& options) {
   if (instance.driver == Driver::handles) {
     for (size_t v = 0; v < n; ++v) instance.fairing_fixed[v] = skeletal[v] == d.skeletal_positions[v] ? 1 : 0;
     params.fixed = instance.fairing_fixed.data();
+  } else if (!d.control_rigid.empty()) {
+    // The skin driver: what one joint carries alone moves rigidly with it (lbs_guard.h), so
+    // the flows leave it where the skin put it and bend the blend zones between.
+    params.fixed = d.control_rigid.data();
   }
   if (params.iterations == 0) params.iterations = kDefaultFairingIterations;
   if (!(params.fold_step > 0.0f))

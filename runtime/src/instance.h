@@ -15,6 +15,7 @@
 #include "asset.h"
 #include "contact.h"
 #include "fair.h"
+#include "lbs_guard.h"
 #include "memory.h"
 #include "skin_blend.h"
 
@@ -223,9 +224,8 @@ struct sf_instance {
   // Fairing (fair_stage.cpp): workspace, this evaluation's local frames of M, and the last
   // correction M'' − M in those frames (the warm start of the next evaluation).
   skelform::runtime::FairingWorkspace fairing;
-  // The contact pass (contact.h), while sf_instance_set_contacts has it on: the welded dense
-  // mesh and the pass's scratch (both empty while it is off).
-  skelform::runtime::ContactMesh contact_mesh;
+  // The contact pass (contact.h), while sf_instance_set_contacts has it on: its scratch (empty
+  // while it is off).
   skelform::runtime::ContactWorkspace contact;
   bool contacts_enabled = false;
   skelform::runtime::Array<glm::mat3> fairing_frames;
@@ -249,6 +249,15 @@ struct sf_instance {
   skelform::runtime::Array<glm::vec3> dense_positions;
   skelform::runtime::Array<glm::vec3> dense_normals;
   skelform::runtime::Array<glm::vec4> dense_tangents;  // empty when no primitive has tangents
+  // Skin driver: skelform's own dense result (K) and LBS of the pose (L), which the guard
+  // blends into dense_* (lbs_guard.h); empty for an unskinned deformable.
+  skelform::runtime::Array<glm::vec3> skelform_positions;
+  skelform::runtime::Array<glm::vec3> skelform_normals;
+  skelform::runtime::Array<glm::vec4> skelform_tangents;
+  skelform::runtime::Array<glm::vec3> lbs_positions;
+  skelform::runtime::Array<glm::vec3> lbs_normals;
+  skelform::runtime::Array<glm::vec4> lbs_tangents;
+  skelform::runtime::GuardWorkspace guard;
   bool evaluated = false;
   bool normals_valid = false;
 

@@ -1,0 +1,80 @@
+// Runtime step 5 (DESIGN.md "LBS where LBS is exact, skelform where it is not"): the output is
+// linear blend skinning plus a share of skelform's correction, and never intersects itself
+// where LBS does not.
+//
+// Every dense vertex v gets x_v = L_v + w_v·λ_v·(K_v − L_v), where L is LBS of the pose, K
+// skelform's result, w_v the baked skelform weight (0 on rigidly weighted vertices, 1 in the
+// blend zones) and λ_v ∈ [0, 1] the guard's factor, per welded vertex. The guard starts from
+// λ = 1 and looks for intersecting pairs of non-adjacent triangles of x that involve a
+// triangle moved off LBS (a pair of unmoved triangles is LBS's own pair). A pair that LBS
+// does not have (the same two triangles tested at L) halves λ at its moved corners, and the
+// search repeats; after kGuardHalvings rounds such corners fall to λ = 0 (exactly LBS). It
+// ends when no such pair is left, which it must: a pair whose corners are all at λ = 0 is
+// LBS's. So every frame's intersecting pairs are a subset of LBS's: skelform never adds a
+// self-intersection to what LBS gives, on any character, in any pose. Where skelform does not
+// add one (nearly everywhere), λ stays 1 and its result is kept whole.
+//
+// The triangle test is geometry::triangles_intersect (double precision, the metric's own);
+// the broad phase is a uniform grid over the moved triangles, queried with every triangle.
+// Volume, on a closed mesh: after the intersection guard, if the result's volume is further
+// from the rest volume (times the pose's reference scale cubed: the bind volume) than LBS's,
+// every λ is scaled by the largest μ ∈ [0, 1] that brings it back within LBS's error (the
+// volume of L + μ·correction is a cubic in μ), and the intersection guard runs again from
+// there; after kVolumeAttempts the correction falls back to 0 (LBS) altogether. So a closed
+// character's volume is never further from its bind volume than LBS's, frame by frame. Open
+// meshes bound no volume and keep μ = 1.
+//
+// The guard is per evaluation (a held pose gives the same λ, bit for bit: no jitter); where a
+// contact starts or ends between frames, the corrected vertices change their share there.
+#pragma once
+
+#include "contact.h"
+#include "memory.h"
+
+#include <glm/vec3.hpp>
+#include <glm/vec4.hpp>
+
+#include <cstdint>
+
+namespace skelform::runtime {
+
+struct Deformable;
+struct DenseOutput;
+
+constexpr uint32_t kGuardHalvings = 4;  // rounds that halve λ before it drops to 0
+constexpr uint32_t kVolumeAttempts = 3;  // volume shares tried before the last falls back to LBS
+
+// Scratch of one instance (make_guard_workspace), sized for its deformable's welded mesh.
+struct GuardWorkspace {
+  explicit GuardWorkspace(const AllocatorRef& a)
+      : factor(CallbackAllocator<float>(a)), positions(CallbackAllocator<glm::vec3>(a)),
+        moved(CallbackAllocator<uint8_t>(a)), flagged(CallbackAllocator<uint8_t>(a)),
+        moved_triangles(CallbackAllocator<uint32_t>(a)), boxes(CallbackAllocator<float>(a)),
+        cell_offsets(CallbackAllocator<uint32_t>(a)), cell_entries(CallbackAllocator<uint32_t>(a)),
+        ranges(CallbackAllocator<int32_t>(a)), stamps(CallbackAllocator<uint32_t>(a)) {}
+  Array<float> factor;              // λ per welded vertex
+  Array<glm::vec3> positions;       // x per welded vertex
+  Array<uint8_t> moved;             // per welded vertex: x differs from L
+  Array<uint8_t> flagged;           // per welded vertex: a corner of an added pair this round
+  Array<uint32_t> moved_triangles;  // triangles with a moved corner
+  Array<float> boxes;               // per triangle: its box (lo xyz, hi xyz)
+  Array<uint32_t> cell_offsets;     // grid over the moved triangles (CSR)
+  Array<uint32_t> cell_entries;
+  Array<int32_t> ranges;            // per moved triangle: its cells (lo xyz, hi xyz)
+  Array<uint32_t> stamps;           // per triangle: the last query that listed it
+  uint32_t stamp = 0;
+  uint32_t rounds = 0;              // of the last evaluation
+  uint32_t corrected = 0;           // welded vertices with λ < 1 after the last evaluation
+  float volume_share = 1.0f;        // μ of the last evaluation
+};
+
+// Throws std::bad_alloc.
+GuardWorkspace make_guard_workspace(const ContactMesh& mesh, const AllocatorRef& allocator);
+
+// `skelform` (K) and `lbs` (L) are this pose's dense results (positions, normals, tangents as
+// the evaluation computed them); `out` receives the blend. `with_normals`: also blend normals
+// (renormalised) and tangents.
+void guard_and_blend(const Deformable& d, const ContactMesh& mesh, float scale, const DenseOutput& skelform,
+                     const DenseOutput& lbs, bool with_normals, const DenseOutput& out, GuardWorkspace& ws);
+
+}  // namespace skelform::runtime
