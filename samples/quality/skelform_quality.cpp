@@ -47,6 +47,7 @@ using namespace skelform::samples;
 
 const char* const kUsage =
     "usage: skelform-quality FILE|DIR... [--frames N] [--fps F] [--json] [--check] [-j N] [--quiet]\n"
+    "                        [--skeleton S] [--reconstruction R] [--fairing F]\n"
     "\n"
     "Plays every animation of skinned glTF 2.0 models through skelform and through linear\n"
     "blend skinning (LBS) and prints, per character and animation, against the bind pose in\n"
@@ -65,6 +66,11 @@ const char* const kUsage =
     "                 character whose mean |volume change| exceeds LBS's, a single-influence\n"
     "                 vertex further than 1e-6 of the diagonal from its rigid motion, a rest or\n"
     "                 bind error above 1e-5, or a file that could not be measured\n"
+    "  --skeleton S   skelform's skeleton skinning: arcs (default), lbs or dqs\n"
+    "  --reconstruction R  carried (default) or paper (the homotopy of eqs. (2), (3))\n"
+    "  --fairing F    on (default), off, folds (flow (4) only) or intersections (flow (5) only)\n"
+    "  --fairing-iterations N  fairing iterations per incremental evaluation (default 1)\n"
+    "  --contacts     skelform with the runtime's contact pass on (sf_instance_set_contacts)\n"
     "  -j N           files measured in parallel (default: the number of cores)\n"
     "  -q, --quiet    no progress on stderr\n"
     "  -h, --help     this text\n"
@@ -87,6 +93,8 @@ struct Arguments {
   bool check = false;
   bool quiet = false;
   unsigned jobs = 0;
+  sf_eval_options options{};  // skelform's evaluation options (--skeleton, --reconstruction, --fairing)
+  bool contacts = false;      // skelform with the contact pass on
 };
 
 unsigned long parse_count(const std::string& option, const std::string& text, unsigned long lo, unsigned long hi) {
@@ -115,6 +123,27 @@ Arguments parse_arguments(int argc, char** argv) {
       if (text.empty() || *end != '\0' || !(args.fps > 0.0) || args.fps > 1000.0)
         fail(kExitUsage, "--fps expects a number in (0, 1000], got '" + text + "'");
     } else if (arg == "-j") args.jobs = unsigned(parse_count(arg, value(), 1, 256));
+    else if (arg == "--skeleton") {
+      const std::string v = value();
+      if (v == "arcs") args.options.skeleton_skinning = SF_SKELETON_ARCS;
+      else if (v == "lbs") args.options.skeleton_skinning = SF_SKELETON_LBS;
+      else if (v == "dqs") args.options.skeleton_skinning = SF_SKELETON_DQS;
+      else fail(kExitUsage, "--skeleton expects arcs, lbs or dqs, got '" + v + "'");
+    } else if (arg == "--reconstruction") {
+      const std::string v = value();
+      if (v == "carried") args.options.reconstruction = SF_RECONSTRUCTION_CARRIED;
+      else if (v == "paper") args.options.reconstruction = SF_RECONSTRUCTION_PAPER;
+      else fail(kExitUsage, "--reconstruction expects carried or paper, got '" + v + "'");
+    } else if (arg == "--fairing") {
+      const std::string v = value();
+      if (v == "on") args.options.fairing_flags = 0;
+      else if (v == "off") args.options.fairing_flags = SF_FAIR_OFF;
+      else if (v == "folds") args.options.fairing_flags = SF_FAIR_NO_INTERSECTION_FLOW;
+      else if (v == "intersections") args.options.fairing_flags = SF_FAIR_NO_FOLD_FLOW;
+      else fail(kExitUsage, "--fairing expects on, off, folds or intersections, got '" + v + "'");
+    } else if (arg == "--fairing-iterations") {
+      args.options.fairing_iterations = uint32_t(parse_count(arg, value(), 1, 1000));
+    } else if (arg == "--contacts") args.contacts = true;
     else if (arg == "--json") args.json = true;
     else if (arg == "--check") args.check = true;
     else if (arg == "-q" || arg == "--quiet") args.quiet = true;
@@ -290,6 +319,7 @@ FileResult measure_file(const std::string& path, const Arguments& args) {
         const sf_result created = sf_instance_create(loaded.asset.asset, d, &instance->handle);
         if (created != SF_OK) fail(exit_code_of(created), std::string("sf_instance_create: ") + sf_result_string(created));
       }
+      if (args.contacts) c.skelform.check(sf_instance_set_contacts(c.skelform.handle, 1), "sf_instance_set_contacts");
       std::vector<float> stored(3 * size_t{c.info.vertex_count});
       std::vector<uint32_t> triangles;
       for (uint32_t p = 0; p < c.info.primitive_count; ++p) {
@@ -311,8 +341,8 @@ FileResult measure_file(const std::string& path, const Arguments& args) {
       result.rigid_vertices += size_t(std::count(c.rigid.begin(), c.rigid.end(), 1));
       result.closed = result.closed && c.topology.closed;
 
-      sf_eval_options from_rest{};
-      from_rest.flags = SF_EVAL_FROM_REST;
+      sf_eval_options from_rest = args.options;
+      from_rest.flags |= SF_EVAL_FROM_REST;
       sf_eval_options lbs_options{};
       lbs_options.method = SF_METHOD_LBS;
       // Rest pose: identity joint matrices give the mesh as stored.
@@ -364,8 +394,8 @@ FileResult measure_file(const std::string& path, const Arguments& args) {
             const std::vector<float> matrices = gltf.joint_matrices(size_t(c.info.skin), a, times[t]);
             c.skelform.check(sf_instance_set_joint_matrices(c.skelform.handle, matrices.data(), c.info.joint_count, 0),
                              "sf_instance_set_joint_matrices");
-            sf_eval_options options{};
-            if (k == 0) options.flags = SF_EVAL_FROM_REST;
+            sf_eval_options options = args.options;
+            if (k == 0) options.flags |= SF_EVAL_FROM_REST;
             c.skelform.check(sf_instance_evaluate(c.skelform.handle, &options), "sf_instance_evaluate");
             if (t + 1 == times.size()) {
               c.lbs.check(sf_instance_set_joint_matrices(c.lbs.handle, matrices.data(), c.info.joint_count, 0),
