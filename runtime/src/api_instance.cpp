@@ -267,16 +267,18 @@ sf_result evaluate(sf_instance& instance, const sf_eval_options& options) {
     instance.output_scale = skin ? instance.joints.scale : 1.0f;
     if (instance.output_scale != 1.0f)
       for (uint32_t v = 0; v < d.vertex_count; ++v) own.positions[v] *= instance.output_scale;
-    // 5. LBS where LBS is exact, and never an intersection LBS does not have (lbs_guard.h).
+    // 5. The contact pass (contact.h), when the caller turned it on: on skelform's own result,
+    // moving only what skelform may move, before the guard checks it against LBS.
+    if (instance.contacts_enabled)
+      resolve_contacts(d.welded, instance.output_scale, own.positions, d.vertex_count, instance.contact,
+                       blended ? d.skelform_weight.data() : nullptr);
+    // 6. LBS where LBS is exact, and never an intersection LBS does not have (lbs_guard.h).
     if (blended) {
       const DenseOutput lbs{instance.lbs_positions.data(), instance.lbs_normals.data(),
                             instance.lbs_tangents.empty() ? nullptr : instance.lbs_tangents.data()};
       dense_skinning(d, instance.joints, Blend::linear, with_normals, lbs);
       guard_and_blend(d, d.welded, instance.output_scale, own, lbs, with_normals, out, instance.guard);
     }
-    // 5. The contact pass on the dense output (contact.h), when the caller turned it on.
-    if (instance.contacts_enabled)
-      resolve_contacts(d.welded, instance.output_scale, instance.dense_positions.data(), d.vertex_count, instance.contact);
     // This evaluation's S' and M are the next incremental evaluation's start. Swapping
     // vectors of one allocator moves pointers only: no allocation.
     instance.previous_skeletal.swap(instance.skeletal);

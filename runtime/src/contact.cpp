@@ -452,7 +452,7 @@ ContactWorkspace make_contact_workspace(const ContactMesh& mesh, const Allocator
 }
 
 ContactStats resolve_contacts(const ContactMesh& mesh, float scale, glm::vec3* dense_positions,
-                              uint32_t dense_vertex_count, ContactWorkspace& ws) {
+                              uint32_t dense_vertex_count, ContactWorkspace& ws, const float* movable) {
   ContactStats stats;
   // The pass's lengths follow the output's scale (instance.h JointTransforms).
   const float gap = mesh.gap * scale, cap = mesh.cap * scale;
@@ -468,12 +468,12 @@ ContactStats resolve_contacts(const ContactMesh& mesh, float scale, glm::vec3* d
   stats.pairs_before = grid.for_each_pair([&](uint32_t s, uint32_t t) {
     for (uint32_t k = 0; k < 3; ++k)
       for (uint32_t v : {tri[3 * size_t(s) + k], tri[3 * size_t(t) + k]})
-        if (!(ws.state[v] & kActive)) {
+        if (!(ws.state[v] & kActive) && (!movable || movable[mesh.representative[v]] > 0.0f)) {
           ws.state[v] |= kActive;
           ws.active.push_back(v);  // capacity reserved for every vertex: no allocation
         }
   });
-  if (stats.pairs_before == 0) return stats;
+  if (stats.pairs_before == 0 || ws.active.empty()) return stats;
   std::sort(ws.active.begin(), ws.active.end());
   for (uint32_t v : ws.active) ws.start[v] = x[v];
   // Do no harm: an active vertex takes its push (or half, or a quarter of it) only if the

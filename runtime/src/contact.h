@@ -85,7 +85,9 @@ struct ContactStats {
 };
 
 // The pass on `dense_positions` (per dense vertex, in place). Deterministic.
+// `movable` (optional, per dense vertex): only welded vertices whose representative has a
+// positive value move (the skin driver passes the skelform weight: rigid parts stay rigid).
 ContactStats resolve_contacts(const ContactMesh& mesh, float scale, glm::vec3* dense_positions, uint32_t dense_vertex_count,
-                              ContactWorkspace& workspace);
+                              ContactWorkspace& workspace, const float* movable = nullptr);
 
 }  // namespace skelform::runtime
