@@ -4,6 +4,7 @@
 #include "skelform/bake/gltf_access.h"
 
 #include "input_formats.h"
+#include "skin_repair.h"
 
 #include <tiny_gltf.h>
 
@@ -69,15 +70,30 @@ std::vector<Triangle> triangulate(int mode, const std::vector<uint32_t>& corner,
 
 }  // namespace
 
+// "elements 3, 17, 40 and 2 more" (primitive-local vertex indices).
+std::string element_list(const std::vector<uint32_t>& elements) {
+  constexpr size_t kShown = 8;
+  std::string text = elements.size() == 1 ? "element " : "elements ";
+  for (size_t i = 0; i < elements.size() && i < kShown; ++i) text += (i ? ", " : "") + std::to_string(elements[i]);
+  if (elements.size() > kShown) text += " and " + std::to_string(elements.size() - kShown) + " more";
+  return text;
+}
+
 // Appends the JOINTS_n/WEIGHTS_n sets of one skinned primitive to mesh.joint_sets and
 // weight_sets, keeping every set as long as mesh.positions (the new primitive's vertices
 // are already appended). Sets this primitive lacks, or earlier primitives lacked, hold zero
-// weights. Weights are renormalised to sum to 1 over all sets (glTF requires the sum to be
-// 1; exporters round); a vertex whose weights are all zero is refused.
+// weights. Exporter defects are repaired as skin_repair.h says, each with a warning in
+// mesh.warnings; weights are then renormalised to sum to 1 over all sets (glTF requires the
+// sum to be 1; exporters round).
 void append_skin_influences(const tinygltf::Model& model, const tinygltf::Primitive& primitive, size_t joint_count,
                             size_t vertex_count, const std::string& what, InputMesh& mesh) {
   const size_t total = mesh.positions.size();
   const size_t first = total - vertex_count;
+  // Every set of this primitive first, as (joint, weight) slots per vertex.
+  std::vector<uint32_t> slot_joints;
+  std::vector<double> slot_weights;
+  std::vector<std::string> accessors;
+  size_t sets = 0;
   for (size_t set = 0;; ++set) {
     const auto joints = primitive.attributes.find("JOINTS_" + std::to_string(set));
     const auto weights = primitive.attributes.find("WEIGHTS_" + std::to_string(set));
@@ -92,6 +108,40 @@ void append_skin_influences(const tinygltf::Model& model, const tinygltf::Primit
     const std::vector<glm::dvec4> weight_values = gltf::read_weights(model, weights->second, what + " WEIGHTS_" + set_name);
     if (joint_values.size() != vertex_count || weight_values.size() != vertex_count)
       invalid(what, "JOINTS_" + set_name + "/WEIGHTS_" + set_name + " count differs from POSITION count");
+    accessors.push_back("WEIGHTS_" + set_name + " (accessor " + std::to_string(weights->second) + ")");
+    sets = set + 1;
+    slot_joints.resize(4 * sets * vertex_count);
+    slot_weights.resize(4 * sets * vertex_count);
+    // Re-lay the earlier sets' slots: vertex-major with 4 slots per set.
+    for (size_t v = vertex_count; v-- > 0;)
+      for (size_t k = 4 * set; k-- > 0;) {
+        slot_joints[v * 4 * sets + k] = slot_joints[v * 4 * set + k];
+        slot_weights[v * 4 * sets + k] = slot_weights[v * 4 * set + k];
+      }
+    for (size_t v = 0; v < vertex_count; ++v)
+      for (int k = 0; k < 4; ++k) {
+        slot_joints[v * 4 * sets + 4 * set + size_t(k)] = joint_values[v][k];
+        slot_weights[v * 4 * sets + 4 * set + size_t(k)] = weight_values[v][k];
+      }
+  }
+  skin::SkinRepairReport report;
+  if (!skin::repair_skin(slot_joints.data(), slot_weights.data(), 4 * sets, mesh.positions.data() + first,
+                         vertex_count, report))
+    invalid(what, "has vertices with no skin weight and no weighted vertex to take one from");
+  std::string sets_named;
+  for (size_t i = 0; i < accessors.size(); ++i) sets_named += (i ? ", " : "") + accessors[i];
+  if (!report.non_finite.empty())
+    mesh.warnings.push_back(what + " " + sets_named + ": " + std::to_string(report.non_finite.size()) +
+                            " vertices with a non-finite weight (" + element_list(report.non_finite) +
+                            "): read as 0");
+  if (!report.inherited.empty())
+    mesh.warnings.push_back(what + " " + sets_named + ": " + std::to_string(report.inherited.size()) +
+                            " vertices without any weight (" + element_list(report.inherited) +
+                            "): given the skin of the nearest weighted vertex");
+  if (report.repeated_joints > 0)
+    mesh.warnings.push_back(what + " " + sets_named + ": " + std::to_string(report.repeated_joints) +
+                            " vertices name one joint in several slots: kept (skinning sums them)");
+  for (size_t set = 0; set < sets; ++set) {
     if (set >= mesh.joint_sets.size()) {
       mesh.joint_sets.emplace_back(first, std::array<uint16_t, 4>{0, 0, 0, 0});
       mesh.weight_sets.emplace_back(first, std::array<float, 4>{0, 0, 0, 0});
@@ -99,13 +149,15 @@ void append_skin_influences(const tinygltf::Model& model, const tinygltf::Primit
     for (size_t v = 0; v < vertex_count; ++v) {
       std::array<uint16_t, 4> j{};
       std::array<float, 4> w{};
-      for (int k = 0; k < 4; ++k) {
+      for (size_t k = 0; k < 4; ++k) {
+        const uint32_t joint = slot_joints[v * 4 * sets + 4 * set + k];
+        const double weight = slot_weights[v * 4 * sets + 4 * set + k];
         // A zero weight may name any joint; only influencing joints must exist in the skin.
-        if (weight_values[v][k] > 0 && joint_values[v][k] >= joint_count)
-          invalid(what, "vertex " + std::to_string(v) + " JOINTS_" + set_name + " names joint " +
-                                  std::to_string(joint_values[v][k]) + " but the skin has " + std::to_string(joint_count));
-        j[static_cast<size_t>(k)] = weight_values[v][k] > 0 ? static_cast<uint16_t>(joint_values[v][k]) : 0;
-        w[static_cast<size_t>(k)] = static_cast<float>(weight_values[v][k]);
+        if (weight > 0 && joint >= joint_count)
+          invalid(what, "vertex " + std::to_string(v) + " JOINTS_" + std::to_string(set) + " names joint " +
+                            std::to_string(joint) + " but the skin has " + std::to_string(joint_count));
+        j[k] = weight > 0 ? static_cast<uint16_t>(joint) : 0;
+        w[k] = static_cast<float>(weight);
       }
       mesh.joint_sets[set].push_back(j);
       mesh.weight_sets[set].push_back(w);

@@ -166,6 +166,9 @@ int run_skeleton(const Arguments& args) {
   LoadOptions load_options;
   load_options.all_meshes = args.all_meshes;
   const InputMesh input = load_mesh(args.input, load_options);
+  // Repaired exporter defects are reported even with --quiet: the output differs from what
+  // a strict reading would give.
+  for (const std::string& warning : input.warnings) std::fprintf(stderr, "skelform-bake: warning: %s\n", warning.c_str());
   timer.stop("load");
 
   timer.start();
@@ -224,6 +227,9 @@ int run_bake(const Arguments& args) {
   LoadOptions load_options;
   load_options.all_meshes = args.all_meshes;
   const InputMesh input = load_mesh(args.input, load_options);
+  // Repaired exporter defects are reported even with --quiet: the output differs from what
+  // a strict reading would give.
+  for (const std::string& warning : input.warnings) std::fprintf(stderr, "skelform-bake: warning: %s\n", warning.c_str());
 
   BakeOptions options;
   options.target_triangles = static_cast<size_t>(args.target_triangles);

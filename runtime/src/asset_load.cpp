@@ -10,6 +10,7 @@
 #include "joint_arcs.h"
 #include "refine.h"
 #include "skelform_weight.h"
+#include "skin_repair.h"
 #include "skin_blend.h"
 
 #include <tiny_gltf.h>
@@ -363,6 +364,24 @@ void read_primitives(const tinygltf::Model& model, const tinygltf::Value& json, 
         dense_sets.joints[set].resize(vertex_total + vertex_count, glm::uvec4(0));
         dense_sets.weights[set].resize(vertex_total + vertex_count, glm::vec4(0.0f));
       }
+      // Exporter defects, repaired as the baker repaired them (skin_repair.h).
+      const size_t slots = 4 * dense_sets.joints.size();
+      std::vector<uint32_t> slot_joints(slots * vertex_count);
+      std::vector<double> slot_weights(slots * vertex_count);
+      for (size_t v = 0; v < vertex_count; ++v)
+        for (size_t k = 0; k < slots; ++k) {
+          slot_joints[v * slots + k] = dense_sets.joints[k / 4][vertex_total + v][int(k % 4)];
+          slot_weights[v * slots + k] = double(dense_sets.weights[k / 4][vertex_total + v][int(k % 4)]);
+        }
+      skin::SkinRepairReport report;
+      if (!skin::repair_skin(slot_joints.data(), slot_weights.data(), slots, positions.data(), vertex_count, report))
+        invalid(what, "has vertices with no skin weight and no weighted vertex to take one from");
+      if (report.repaired())
+        for (size_t v = 0; v < vertex_count; ++v)
+          for (size_t k = 0; k < slots; ++k) {
+            dense_sets.joints[k / 4][vertex_total + v][int(k % 4)] = slot_joints[v * slots + k];
+            dense_sets.weights[k / 4][vertex_total + v][int(k % 4)] = float(slot_weights[v * slots + k]);
+          }
     }
     vertex_total += vertex_count;
     deformable.primitives.push_back(record);

@@ -14,6 +14,7 @@
 // atomically and depends only on the input and the options.
 #include "animation_glb.h"
 #include "atomic_file.h"
+#include "baked_asset.h"
 #include "cli.h"
 #include "gltf_animation.h"
 #include "skelform/bake/bake.h"
@@ -41,6 +42,8 @@
 namespace {
 
 using skelform::samples::AnimationFile;
+using skelform::samples::AssetHandle;
+using skelform::samples::LoadedAsset;
 using skelform::samples::AnimationRange;
 using skelform::samples::DeformableFrames;
 using skelform::samples::GltfAnimation;
@@ -129,59 +132,6 @@ Arguments parse_arguments(int argc, char** argv) {
   return args;
 }
 
-int exit_code_of(const skelform::bake::Error& error) {
-  switch (error.kind()) {
-    case skelform::bake::ErrorKind::usage: return kExitUsage;
-    case skelform::bake::ErrorKind::io: return kExitIo;
-    default: return kExitInvalidInput;
-  }
-}
-
-std::string read_bytes(const std::string& path) {
-  std::error_code error;
-  if (!std::filesystem::is_regular_file(path, error)) fail(kExitIo, "cannot read " + path + ": no such file");
-  std::ifstream file(path, std::ios::binary);
-  std::ostringstream contents;
-  contents << file.rdbuf();
-  if (!file) fail(kExitIo, "cannot read " + path);
-  return contents.str();
-}
-
-uint32_t read_u32(const std::string& bytes, size_t offset) {
-  uint32_t value = 0;
-  for (int i = 3; i >= 0; --i) value = (value << 8) | static_cast<unsigned char>(bytes[offset + size_t(i)]);
-  return value;
-}
-
-// The glTF JSON of a .glb or .gltf file (the container recognised by its bytes).
-nlohmann::json gltf_json(const std::string& bytes, const std::string& name) {
-  std::string text = bytes;
-  if (bytes.size() >= 4 && bytes.compare(0, 4, "glTF") == 0) {
-    if (bytes.size() < 20 || read_u32(bytes, 16) != 0x4E4F534Au)
-      fail(kExitInvalidInput, name + ": truncated GLB or no JSON chunk");
-    const size_t length = read_u32(bytes, 12);
-    if (length > bytes.size() - 20) fail(kExitInvalidInput, name + ": the GLB's JSON chunk exceeds the file");
-    text = bytes.substr(20, length);
-  }
-  nlohmann::json document = nlohmann::json::parse(text, nullptr, false);
-  if (document.is_discarded() || !document.is_object()) fail(kExitInvalidInput, name + ": not a glTF file (no JSON object)");
-  return document;
-}
-
-bool is_baked(const nlohmann::json& document) {
-  const auto used = document.find("extensionsUsed");
-  if (used == document.end() || !used->is_array()) return false;
-  return std::any_of(used->begin(), used->end(), [](const nlohmann::json& e) { return e == kExtensionName; });
-}
-
-struct AssetHandle {
-  sf_asset* asset = nullptr;
-  AssetHandle() = default;
-  AssetHandle(const AssetHandle&) = delete;
-  AssetHandle& operator=(const AssetHandle&) = delete;
-  ~AssetHandle() { sf_asset_destroy(asset); }
-};
-
 // Owns one instance; every failed call becomes a Failure naming the call.
 struct Instance {
   sf_instance* handle = nullptr;
@@ -261,42 +211,17 @@ int run(const Arguments& args) {
   auto progress = [&](const std::string& text) {
     if (!args.quiet) std::fprintf(stderr, "skelform-animate: %s\n", text.c_str());
   };
-  const std::string bytes = read_bytes(args.input);
-  const nlohmann::json document = gltf_json(bytes, args.input);
+  const LoadedAsset loaded = skelform::samples::load_or_bake(
+      args.input,
+      [&](const char* stage, size_t deformable, size_t count) {
+        progress("  mesh " + std::to_string(deformable + 1) + "/" + std::to_string(count) + ": " + stage);
+      },
+      [&] { progress("baking " + args.input + " (it has no " + kExtensionName + " extension)"); });
+  for (const std::string& warning : loaded.warnings) std::fprintf(stderr, "skelform-animate: warning: %s\n", warning.c_str());
+  const nlohmann::json document = skelform::samples::gltf_document(loaded.bytes, args.input);
   const GltfAnimation gltf = GltfAnimation::load_file(args.input);
-
-  // The baked asset: as it is, or baked here first.
-  AssetHandle asset;
-  char message[512] = "";
-  sf_load_options load_options{};
-  load_options.error_message = message;
-  load_options.error_message_capacity = sizeof(message);
-  sf_result loaded = SF_OK;
-  double bake_seconds = 0;
-  const bool glb = bytes.compare(0, 4, "glTF") == 0;
-  if (is_baked(document)) {
-    loaded = glb ? sf_asset_load_memory(bytes.data(), bytes.size(), &load_options, &asset.asset)
-                 : sf_asset_load_file(args.input.c_str(), &load_options, &asset.asset);
-  } else {
-    progress("baking " + args.input + " (it has no " + kExtensionName + " extension)");
-    const auto bake_start = Clock::now();
-    const skelform::bake::InputMesh input = skelform::bake::load_mesh_from_memory(
-        std::vector<unsigned char>(bytes.begin(), bytes.end()), glb ? ".glb" : ".gltf", args.input);
-    skelform::bake::BakeOptions bake_options;
-    bake_options.progress = [&](const char* stage, size_t deformable, size_t count) {
-      progress("  mesh " + std::to_string(deformable + 1) + "/" + std::to_string(count) + ": " + stage);
-    };
-    const skelform::bake::BakeResult baked = skelform::bake::bake_model(input, bake_options);
-    const std::filesystem::path directory = std::filesystem::path(args.input).parent_path();
-    const std::string baked_bytes =
-        skelform::bake::baked_glb(bytes, directory.empty() ? "." : directory.string(), baked.deformables);
-    bake_seconds = std::chrono::duration<double>(Clock::now() - bake_start).count();
-    loaded = sf_asset_load_memory(baked_bytes.data(), baked_bytes.size(), &load_options, &asset.asset);
-  }
-  if (loaded != SF_OK) {
-    const std::string text = message[0] ? message : sf_result_string(loaded);
-    fail(exit_code_of(loaded), text.rfind(args.input, 0) == 0 ? text : args.input + ": " + text);
-  }
+  const AssetHandle& asset = loaded.asset;
+  const double bake_seconds = loaded.bake_seconds;
   const uint32_t deformable_count = sf_asset_deformable_count(asset.asset);
   if (deformable_count == 0) fail(kExitInvalidInput, args.input + " has no skinned mesh to animate");
 

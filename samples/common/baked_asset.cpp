@@ -35,7 +35,7 @@ std::string read_file_bytes(const std::string& path) {
   return contents.str();
 }
 
-bool has_skelform_extension(const std::string& bytes, const std::string& name) {
+nlohmann::json gltf_document(const std::string& bytes, const std::string& name) {
   std::string text = bytes;
   if (bytes.size() >= 4 && bytes.compare(0, 4, "glTF") == 0) {
     if (bytes.size() < 20 || read_u32(bytes, 16) != 0x4E4F534Au)
@@ -44,8 +44,13 @@ bool has_skelform_extension(const std::string& bytes, const std::string& name) {
     if (length > bytes.size() - 20) fail(kExitInvalidInput, name + ": the GLB's JSON chunk exceeds the file");
     text = bytes.substr(20, length);
   }
-  const nlohmann::json document = nlohmann::json::parse(text, nullptr, false);
+  nlohmann::json document = nlohmann::json::parse(text, nullptr, false);
   if (document.is_discarded() || !document.is_object()) fail(kExitInvalidInput, name + ": not a glTF file (no JSON object)");
+  return document;
+}
+
+bool has_skelform_extension(const std::string& bytes, const std::string& name) {
+  const nlohmann::json document = gltf_document(bytes, name);
   const auto used = document.find("extensionsUsed");
   if (used == document.end() || !used->is_array()) return false;
   return std::any_of(used->begin(), used->end(), [](const nlohmann::json& e) { return e == kExtensionName; });
@@ -60,7 +65,8 @@ int exit_code_of(const bake::Error& error) {
 }
 
 LoadedAsset load_or_bake(const std::string& path,
-                         const std::function<void(const char* stage, size_t deformable, size_t count)>& progress) {
+                         const std::function<void(const char* stage, size_t deformable, size_t count)>& progress,
+                         const std::function<void()>& baking) {
   LoadedAsset loaded;
   loaded.bytes = read_file_bytes(path);
   char message[512] = "";
@@ -73,9 +79,11 @@ LoadedAsset load_or_bake(const std::string& path,
     result = glb ? sf_asset_load_memory(loaded.bytes.data(), loaded.bytes.size(), &load_options, &loaded.asset.asset)
                  : sf_asset_load_file(path.c_str(), &load_options, &loaded.asset.asset);
   } else {
+    if (baking) baking();
     const auto start = std::chrono::steady_clock::now();
     const bake::InputMesh input = bake::load_mesh_from_memory(
         std::vector<unsigned char>(loaded.bytes.begin(), loaded.bytes.end()), glb ? ".glb" : ".gltf", path);
+    loaded.warnings = input.warnings;
     bake::BakeOptions options;
     options.progress = progress;
     loaded.bake = bake::bake_model(input, options);

@@ -6,8 +6,11 @@
 #include "skelform/bake/bake.h"
 #include "skelform/skelform.h"
 
+#include <nlohmann/json.hpp>
+
 #include <functional>
 #include <string>
+#include <vector>
 
 namespace skelform::samples {
 
@@ -27,21 +30,27 @@ struct LoadedAsset {
   bool baked_here = false;    // true when the file had no extension and was baked in memory
   double bake_seconds = 0.0;  // time of that bake
   bake::BakeResult bake;      // its reports (empty when the file was already baked)
+  std::vector<std::string> warnings;  // exporter defects the in-memory bake repaired (input.h)
 };
 
 // Reads the whole file. Throws Failure (kExitIo) when it cannot.
 std::string read_file_bytes(const std::string& path);
+
+// The glTF JSON of .glb or .gltf bytes (the container recognised by its bytes). Throws Failure
+// (kExitInvalidInput) for bytes that are no glTF.
+nlohmann::json gltf_document(const std::string& bytes, const std::string& name);
 
 // True when the glTF bytes (.glb or .gltf) list the extension in extensionsUsed. Throws
 // Failure (kExitInvalidInput) for bytes that are no glTF.
 bool has_skelform_extension(const std::string& bytes, const std::string& name);
 
 // Reads `path` and loads it into the runtime, baking it in memory first when needed
-// (`progress` as BakeOptions::progress; may be empty). Throws Failure with the exit code of
+// (`progress` as BakeOptions::progress; may be empty; `baking` is called once before a bake). Throws Failure with the exit code of
 // the failure (the baker's and the loader's messages name the file) and bake::Error from the
 // in-memory bake.
 LoadedAsset load_or_bake(const std::string& path,
-                         const std::function<void(const char* stage, size_t deformable, size_t count)>& progress = {});
+                         const std::function<void(const char* stage, size_t deformable, size_t count)>& progress = {},
+                         const std::function<void()>& baking = {});
 
 // The exit code (cli.h) of a baker failure.
 int exit_code_of(const bake::Error& error);

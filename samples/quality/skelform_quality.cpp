@@ -195,6 +195,7 @@ struct AnimationResult {
 struct FileResult {
   std::string path, pack, name;
   std::string refused;  // the failure message; the rest is empty then
+  std::vector<std::string> warnings;  // exporter defects the in-memory bake repaired
   size_t vertices = 0, triangles = 0, rigid_vertices = 0, bind_pairs = 0;
   bool closed = true;
   double rest_error = 0, bind_error = 0;
@@ -305,6 +306,7 @@ FileResult measure_file(const std::string& path, const Arguments& args) {
   result.pack = std::filesystem::path(path).parent_path().filename().string();
   try {
     LoadedAsset loaded = load_or_bake(path);
+    result.warnings = loaded.warnings;
     const skelform::bake::InputMesh input = skelform::bake::load_mesh_from_memory(
         std::vector<unsigned char>(loaded.bytes.begin(), loaded.bytes.end()),
         loaded.bytes.compare(0, 4, "glTF") == 0 ? ".glb" : ".gltf", path);
@@ -549,6 +551,7 @@ void print_table(const std::vector<FileResult>& files) {
                 f.closed ? (percent(s.skelform_volume_worst) + " / " + percent(s.lbs_volume_worst)).c_str() : "",
                 scientific(s.rigid).c_str(), scientific(f.rest_error).c_str(), scientific(f.bind_error).c_str(),
                 f.bind_pairs, f.seconds);
+    for (const std::string& warning : f.warnings) std::printf("%-28s repaired: %s\n", f.name.c_str(), warning.c_str());
     packs[f.pack].add(s);
     all.add(s);
   }
@@ -573,6 +576,7 @@ nlohmann::json report_json(const std::vector<FileResult>& files, const std::vect
       report["files"].push_back(j);
       continue;
     }
+    j["warnings"] = f.warnings;
     j["vertices"] = f.vertices;
     j["triangles"] = f.triangles;
     j["closed"] = f.closed;

@@ -61,7 +61,8 @@ std::vector<glm::dmat4> read_mat4(const tinygltf::Model& model, int accessor, co
 std::vector<glm::uvec4> read_joints(const tinygltf::Model& model, int accessor, const std::string& what);
 
 // WEIGHTS_n: VEC4 FLOAT, or normalized UNSIGNED_BYTE / UNSIGNED_SHORT mapped to [0, 1].
-// Every weight finite and >= 0; the sum is not checked (the caller decides how to treat it).
+// No finite weight negative. Non-finite weights are returned as they are, and the sum is not
+// checked: the caller repairs both (runtime/src/skin_repair.h).
 std::vector<glm::dvec4> read_weights(const tinygltf::Model& model, int accessor, const std::string& what);
 
 // Primitive indices: SCALAR UNSIGNED_BYTE, UNSIGNED_SHORT or UNSIGNED_INT, not normalized,

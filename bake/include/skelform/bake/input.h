@@ -41,6 +41,9 @@ struct InputMesh {
   // primitive with fewer sets than another gets zero weights in the sets it lacks.
   std::vector<std::vector<std::array<uint16_t, 4>>> joint_sets;
   std::vector<std::vector<std::array<float, 4>>> weight_sets;
+  // Exporter defects the loader repaired (runtime/src/skin_repair.h), one line each, naming
+  // the file, primitive, accessors and elements: the CLI prints them as warnings.
+  std::vector<std::string> warnings;
 };
 
 struct LoadOptions {
