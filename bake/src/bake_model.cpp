@@ -11,6 +11,8 @@
 #include "skelform/bake/topology.h"
 #include "skelform/bake/weld.h"
 
+#include "skelform_weight.h"
+
 #include <glm/geometric.hpp>
 
 #include <cmath>
@@ -35,6 +37,10 @@ InputMesh select_primitives(const InputMesh& input, const std::vector<size_t>& p
       for (size_t s = 0; s < input.joint_sets.size(); ++s) {
         out.joint_sets[s].push_back(input.joint_sets[s][source]);
         out.weight_sets[s].push_back(input.weight_sets[s][source]);
+      }
+      if (!input.skelform_weight_override.empty()) {
+        out.skelform_weight_override.resize(out.positions.size() - 1, -1.0f);
+        out.skelform_weight_override.push_back(input.skelform_weight_override[source]);
       }
     }
     const uint32_t triangle_offset = static_cast<uint32_t>(out.triangles.size());
@@ -152,6 +158,23 @@ BakedDeformable bake_deformable(const InputMesh& group, const BakeOptions& optio
       }
       baked.joint_sets.push_back(std::move(joints));
       baked.weight_sets.push_back(std::move(weights));
+    }
+    // The skelform weight of every original vertex: the artist's, else the skin's rule.
+    baked.skelform_weight.resize(group.positions.size());
+    std::vector<uint16_t> joints(4 * group.joint_sets.size());
+    std::vector<float> weights(4 * group.joint_sets.size());
+    for (size_t v = 0; v < group.positions.size(); ++v) {
+      const float artist = v < group.skelform_weight_override.size() ? group.skelform_weight_override[v] : -1.0f;
+      if (artist >= 0.0f) {
+        baked.skelform_weight[v] = artist;
+        continue;
+      }
+      for (size_t s = 0; s < group.joint_sets.size(); ++s)
+        for (size_t k = 0; k < 4; ++k) {
+          joints[4 * s + k] = group.joint_sets[s][v][k];
+          weights[4 * s + k] = group.weight_sets[s][v][k];
+        }
+      baked.skelform_weight[v] = skin::skelform_weight(joints.data(), weights.data(), uint32_t(joints.size()));
     }
   }
 

@@ -62,6 +62,10 @@ std::vector<glm::dvec4> read_weights(const tinygltf::Model& model, int accessor,
   return translated([&] { return skelform::gltf::read_weights(model, accessor, what); });
 }
 
+std::vector<float> read_unit_scalars(const tinygltf::Model& model, int accessor, const std::string& what) {
+  return translated([&] { return skelform::gltf::read_unit_scalars(model, accessor, what); });
+}
+
 std::vector<uint32_t> read_indices(const tinygltf::Model& model, int accessor, size_t vertex_count,
                                    const std::string& what) {
   return translated([&] { return skelform::gltf::read_indices(model, accessor, vertex_count, what); });

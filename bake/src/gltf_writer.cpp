@@ -358,6 +358,9 @@ void check_deformable(const Json& document, const BakedDeformable& d, size_t i) 
   require(!d.control_indices.empty() && d.control_indices.size() % 3 == 0 && all_below(d.control_indices, control), i,
           "control indices must be triangles of control vertices");
   require(d.joint_sets.size() == d.weight_sets.size(), i, "as many joint sets as weight sets");
+  require(d.skelform_weight.empty() || d.skelform_weight.size() == d.dense_vertex_count, i,
+          "skelform weights need one entry per dense vertex");
+  for (float w : d.skelform_weight) require(w >= 0.0f && w <= 1.0f, i, "a skelform weight outside [0, 1]");
   require(d.skin == -1 || !d.joint_sets.empty(), i, "a skinned deformable needs at least one joint/weight set");
   for (size_t s = 0; s < d.joint_sets.size(); ++s) {
     require(d.joint_sets[s].size() == control && d.weight_sets[s].size() == control, i, "joint/weight sets need one entry per control vertex");
@@ -519,6 +522,12 @@ Json extension_of_deformable(ArrayAppender& arrays, const BakedDeformable& d, si
   deformable["control"] = std::move(control);
   deformable["subdivision"] = std::move(subdivision);
   deformable["binding"] = std::move(binding);
+  if (!d.skelform_weight.empty()) {
+    Json blend = Json::object();
+    blend[format::kSkelformWeight.name] =
+        arrays.add(format::kSkelformWeight, d.skelform_weight, prefix + format::kSkelformWeight.group + "." + format::kSkelformWeight.name);
+    deformable[format::kSkelformWeight.group] = std::move(blend);
+  }
   return deformable;
 }
 

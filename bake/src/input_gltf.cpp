@@ -4,6 +4,7 @@
 #include "skelform/bake/gltf_access.h"
 
 #include "input_formats.h"
+#include "extension_layout.h"
 #include "skin_repair.h"
 
 #include <tiny_gltf.h>
@@ -244,6 +245,17 @@ InputMesh load_gltf(const std::vector<unsigned char>& bytes, bool binary, const 
       record.indexed = primitive.indices >= 0;
       for (Triangle& t : triangles)
         for (uint32_t& v : t) v += record.first_vertex;
+      const auto override_attribute = primitive.attributes.find(format::kSkelformWeightAttribute);
+      if (override_attribute != primitive.attributes.end()) {
+        const std::vector<float> values =
+            gltf::read_unit_scalars(model, override_attribute->second, what + " " + format::kSkelformWeightAttribute);
+        if (values.size() != positions.size())
+          invalid(what, std::string(format::kSkelformWeightAttribute) + " count differs from POSITION count");
+        mesh.skelform_weight_override.resize(mesh.positions.size(), -1.0f);
+        mesh.skelform_weight_override.insert(mesh.skelform_weight_override.end(), values.begin(), values.end());
+      } else if (!mesh.skelform_weight_override.empty()) {
+        mesh.skelform_weight_override.resize(mesh.positions.size() + positions.size(), -1.0f);
+      }
       mesh.positions.insert(mesh.positions.end(), positions.begin(), positions.end());
       mesh.triangles.insert(mesh.triangles.end(), triangles.begin(), triangles.end());
       mesh.primitives.push_back(record);

@@ -262,8 +262,11 @@ void triangulate(int mode, const std::vector<uint32_t>& corner, uint32_t first_v
   }
 }
 
+// `weight_override` receives every dense vertex's _SKELFORM_WEIGHT (-1 where its primitive has
+// none).
 void read_primitives(const tinygltf::Model& model, const tinygltf::Value& json, const std::string& prefix,
-                     Deformable& deformable, InfluenceSets& dense_sets, std::vector<std::string>& dense_labels) {
+                     Deformable& deformable, InfluenceSets& dense_sets, std::vector<std::string>& dense_labels,
+                     std::vector<float>& weight_override) {
   const tinygltf::Mesh& mesh = model.meshes[static_cast<size_t>(deformable.mesh)];
   const tinygltf::Value* list = member(json, format::kPrimitives);
   if (!list || !list->IsArray() || list->ArrayLen() == 0)
@@ -305,6 +308,15 @@ void read_primitives(const tinygltf::Model& model, const tinygltf::Value& json, 
     record.first_vertex = static_cast<uint32_t>(vertex_total);
     record.vertex_count = static_cast<uint32_t>(vertex_count);
     for (const glm::dvec3& position : positions) deformable.rest_positions.push_back(glm::vec3(position));
+    const int override_accessor = attribute(format::kSkelformWeightAttribute);
+    if (override_accessor >= 0) {
+      const std::vector<float> values =
+          gltf::read_unit_scalars(model, override_accessor, what + " " + format::kSkelformWeightAttribute);
+      if (values.size() != vertex_count) invalid(what, std::string(format::kSkelformWeightAttribute) + " count differs from POSITION count");
+      weight_override.insert(weight_override.end(), values.begin(), values.end());
+    } else {
+      weight_override.insert(weight_override.end(), vertex_count, -1.0f);
+    }
 
     const int normal_accessor = attribute("NORMAL");
     record.has_normals = normal_accessor >= 0;
@@ -544,7 +556,8 @@ void load_deformable(const tinygltf::Model& model, const tinygltf::Value& json, 
   // Dense vertices from the glTF mesh itself.
   InfluenceSets dense_sets;
   std::vector<std::string> dense_labels;
-  read_primitives(model, json, prefix, deformable, dense_sets, dense_labels);
+  std::vector<float> weight_override;
+  read_primitives(model, json, prefix, deformable, dense_sets, dense_labels, weight_override);
   if (deformable.vertex_count != counts.dense_vertices)
     invalid(prefix, std::string(format::kVertexCount) + " is " + std::to_string(counts.dense_vertices) +
                         " but the primitives' POSITION counts sum to " + std::to_string(deformable.vertex_count));
@@ -554,11 +567,29 @@ void load_deformable(const tinygltf::Model& model, const tinygltf::Value& json, 
     deformable.influences = static_cast<uint32_t>(4 * sets);
     store_influences(dense_sets, deformable.vertex_count, deformable.influences, deformable.dense_joints,
                      deformable.dense_weights);
+    // The skelform weight: as baked (2.2), else the artist's attribute, else the skin's rule
+    // (the baker's order too, skelform_weight.h).
     deformable.skelform_weight.resize(deformable.vertex_count);
-    for (uint32_t v = 0; v < deformable.vertex_count; ++v)
-      deformable.skelform_weight[v] = skin::skelform_weight(deformable.dense_joints.data() + size_t{v} * deformable.influences,
-                                                            deformable.dense_weights.data() + size_t{v} * deformable.influences,
-                                                            deformable.influences);
+    if (const tinygltf::Value* blend = member(json, format::kSkelformWeight.group)) {
+      if (!blend->IsObject()) invalid(prefix, std::string("'") + format::kSkelformWeight.group + "' is not an object");
+      const ReadArray weights = read_array(model, json, format::kSkelformWeight, prefix);
+      if (weights.items() != counts.dense_vertices)
+        invalid(weights.what, "has " + std::to_string(weights.items()) + " elements; expected " +
+                                  std::to_string(counts.dense_vertices) + " (dense vertices)");
+      for (size_t v = 0; v < weights.values.size(); ++v) {
+        if (!(weights.values[v] >= 0.0 && weights.values[v] <= 1.0))
+          invalid(weights.what, "vertex " + std::to_string(v) + " has a weight outside [0, 1]");
+        deformable.skelform_weight[v] = static_cast<float>(weights.values[v]);
+      }
+    } else {
+      for (uint32_t v = 0; v < deformable.vertex_count; ++v)
+        deformable.skelform_weight[v] =
+            weight_override[v] >= 0.0f
+                ? weight_override[v]
+                : skin::skelform_weight(deformable.dense_joints.data() + size_t{v} * deformable.influences,
+                                        deformable.dense_weights.data() + size_t{v} * deformable.influences,
+                                        deformable.influences);
+    }
     store_influences(control_sets, deformable.control_vertex_count, deformable.influences, deformable.control_joints,
                      deformable.control_weights);
     deformable.control_rigid.resize(deformable.control_vertex_count);

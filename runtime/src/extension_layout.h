@@ -20,8 +20,10 @@ inline constexpr char kExtensionName[] = "SKELFORM_skeletal_deformation";
 // Version 2.1: each control normal sum is first turned halfway onto the medial direction M − S
 // (dss_frame.h medial_normal_sums). At rest the two rules give the same field to float
 // rounding (S = M − d·N with N the area-weighted normal), so 2.0 and 2.1 data are read alike.
+// Version 2.2: adds the optional per-vertex skelform weight (kSkelformWeight); a 2.0 or 2.1
+// asset without it gets the weight derived from the skin, the rule the baker uses.
 inline constexpr int kMajorVersion = 2;
-inline constexpr int kMinorVersion = 1;
+inline constexpr int kMinorVersion = 2;
 
 // glTF accessor component types used by the extension.
 enum class Component : int {
@@ -82,6 +84,15 @@ inline constexpr size_t kArrayCount = sizeof(kArrays) / sizeof(kArrays[0]);
 // JOINTS_n/WEIGHTS_n: control.joints[i] and control.weights[i] are arrays of accessors.
 inline constexpr ArraySpec kJointSet = {"control", "joints", Component::unsigned_short, 4, CountOf::control_vertices, 1};
 inline constexpr ArraySpec kWeightSet = {"control", "weights", Component::float32, 4, CountOf::control_vertices, 1};
+
+// The skelform weight of every dense vertex (runtime/src/skelform_weight.h), in [0, 1]:
+// the output is LBS + weight·(skelform − LBS). Optional (version 2.2); the reader derives it
+// from the skin when it is absent.
+inline constexpr ArraySpec kSkelformWeight = {"blend", "skelformWeight", Component::float32, 1, CountOf::dense_vertices, 1};
+// The vertex attribute through which an artist overrides the skelform weight, per primitive:
+// SCALAR FLOAT or normalized UNSIGNED_BYTE / UNSIGNED_SHORT, every value in [0, 1]. glTF names
+// application-specific attributes with a leading underscore.
+inline constexpr char kSkelformWeightAttribute[] = "_SKELFORM_WEIGHT";
 
 // Scalar members of a deformable (JSON integers).
 inline constexpr char kMesh[] = "mesh";             // glTF mesh index

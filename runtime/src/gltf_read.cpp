@@ -454,6 +454,20 @@ std::vector<uint32_t> read_indices(const tinygltf::Model& model, int accessor, s
   return out;
 }
 
+std::vector<float> read_unit_scalars(const tinygltf::Model& model, int accessor, const std::string& what) {
+  const std::vector<double> v = read_values(
+      model, accessor, TINYGLTF_TYPE_SCALAR,
+      {TINYGLTF_COMPONENT_TYPE_FLOAT, TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE, TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT}, what);
+  std::vector<float> out(v.size());
+  for (size_t i = 0; i < v.size(); ++i) {
+    if (!(v[i] >= 0.0 && v[i] <= 1.0))
+      invalid(what, "accessor " + std::to_string(accessor) + " element " + std::to_string(i) + " is " +
+                        std::to_string(v[i]) + ", outside [0, 1]");
+    out[i] = static_cast<float>(v[i]);
+  }
+  return out;
+}
+
 std::vector<double> read_values(const tinygltf::Model& model, int accessor, int type,
                                 const std::vector<int>& component_types, const std::string& what) {
   const std::vector<double> values = read_components(model, accessor, {type, component_types, true, false}, what);

@@ -96,6 +96,10 @@ std::vector<glm::uvec4> read_joints(const tinygltf::Model& model, int accessor, 
 // checked: the caller repairs both (runtime/src/skin_repair.h).
 std::vector<glm::dvec4> read_weights(const tinygltf::Model& model, int accessor, const std::string& what);
 
+// A per-vertex weight in [0, 1] (the _SKELFORM_WEIGHT attribute): SCALAR FLOAT, or normalized
+// UNSIGNED_BYTE / UNSIGNED_SHORT; every value finite and within [0, 1].
+std::vector<float> read_unit_scalars(const tinygltf::Model& model, int accessor, const std::string& what);
+
 // Primitive indices: SCALAR UNSIGNED_BYTE, UNSIGNED_SHORT or UNSIGNED_INT, not normalized,
 // each < vertex_count.
 std::vector<uint32_t> read_indices(const tinygltf::Model& model, int accessor, size_t vertex_count,

@@ -42,6 +42,10 @@ struct BakedDeformable {
   std::vector<glm::vec2> binding_barycentric;
   std::vector<float> binding_displacement;
   std::vector<glm::vec2> binding_residual;
+
+  // The skelform weight of every original vertex (runtime/src/skelform_weight.h, or the
+  // artist's _SKELFORM_WEIGHT). Empty when skin == -1.
+  std::vector<float> skelform_weight;
 };
 
 }  // namespace skelform::bake

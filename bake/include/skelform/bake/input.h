@@ -41,6 +41,9 @@ struct InputMesh {
   // primitive with fewer sets than another gets zero weights in the sets it lacks.
   std::vector<std::vector<std::array<uint16_t, 4>>> joint_sets;
   std::vector<std::vector<std::array<float, 4>>> weight_sets;
+  // The artist's skelform weight (the _SKELFORM_WEIGHT attribute, extension_layout.h) of
+  // each original vertex, -1 where its primitive has none; empty when no primitive has it.
+  std::vector<float> skelform_weight_override;
   // Exporter defects the loader repaired (runtime/src/skin_repair.h), one line each, naming
   // the file, primitive, accessors and elements: the CLI prints them as warnings.
   std::vector<std::string> warnings;
