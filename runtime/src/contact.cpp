@@ -430,6 +430,10 @@ ContactMesh build_contact_mesh(const glm::vec3* rest_positions, uint32_t vertex_
     six_volume += glm::dot(a, glm::cross(b, c));
   }
   mesh.rest_volume = six_volume / 6.0;
+  Array<glm::vec3> welded_rest{CallbackAllocator<glm::vec3>(allocator)};
+  welded_rest.resize(mesh.vertex_count);
+  for (uint32_t v = 0; v < mesh.vertex_count; ++v) welded_rest[v] = rest_positions[mesh.representative[v]];
+  mesh.hierarchy = build_triangle_hierarchy(welded_rest.data(), mesh.triangles.data(), mesh.triangle_count, allocator);
   return mesh;
 }
 

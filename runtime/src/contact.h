@@ -15,6 +15,7 @@
 #pragma once
 
 #include "memory.h"
+#include "triangle_bvh.h"
 
 #include <glm/vec3.hpp>
 
@@ -28,7 +29,7 @@ struct ContactMesh {
   explicit ContactMesh(const AllocatorRef& a)
       : weld(CallbackAllocator<uint32_t>(a)), representative(CallbackAllocator<uint32_t>(a)),
         triangles(CallbackAllocator<uint32_t>(a)), incident_offsets(CallbackAllocator<uint32_t>(a)),
-        incident(CallbackAllocator<uint32_t>(a)) {}
+        incident(CallbackAllocator<uint32_t>(a)), hierarchy(a) {}
   uint32_t vertex_count = 0;          // welded vertices
   uint32_t triangle_count = 0;        // welded triangles without a repeated corner
   Array<uint32_t> weld;               // per dense vertex: its welded vertex (same rest position, bit for bit)
@@ -42,6 +43,8 @@ struct ContactMesh {
   // bounds a volume, `rest_volume` (signed, divergence theorem, in the stored mesh's units).
   bool closed = false;
   double rest_volume = 0.0;
+  // The triangles' hierarchy over the rest pose (triangle_bvh.h), for the LBS guard.
+  TriangleHierarchy hierarchy;
 };
 
 constexpr uint32_t kContactSweeps = 4;  // passes over the active vertices, at most

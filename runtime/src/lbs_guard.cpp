@@ -3,6 +3,7 @@
 #include "asset.h"
 #include "instance.h"
 #include "skin_blend.h"
+#include "triangle_bvh.h"
 #include "triangle_intersection.h"
 
 #include <algorithm>
@@ -14,118 +15,6 @@ namespace {
 
 glm::dvec3 widen(const glm::vec3& p) { return glm::dvec3(p); }
 
-// The grid over the moved triangles' boxes, rebuilt every round: uniform cells no smaller than
-// the largest moved box (so each moved triangle lies in at most 2 x 2 x 2 cells), coarsened
-// until there are at most 4 cells per moved triangle.
-class MovedGrid {
- public:
-  explicit MovedGrid(GuardWorkspace& ws) : ws_(ws) {}
-
-  // False when nothing can be gridded (no moved triangle, or a non-finite box).
-  bool build() {
-    const size_t count = ws_.moved_triangles.size();
-    if (count == 0) return false;
-    glm::vec3 lo(std::numeric_limits<float>::max()), hi(-std::numeric_limits<float>::max());
-    float largest = 0.0f;
-    for (uint32_t t : ws_.moved_triangles) {
-      const float* b = ws_.boxes.data() + 6 * size_t(t);
-      for (int k = 0; k < 3; ++k) {
-        lo[k] = std::min(lo[k], b[k]);
-        hi[k] = std::max(hi[k], b[3 + k]);
-        largest = std::max(largest, b[3 + k] - b[k]);
-      }
-    }
-    for (int k = 0; k < 3; ++k)
-      if (!std::isfinite(lo[k]) || !std::isfinite(hi[k])) return false;
-    const glm::vec3 extent = hi - lo;
-    float cell = std::max({largest * 1.001f, extent.x * 1e-6f, extent.y * 1e-6f, extent.z * 1e-6f,
-                           std::numeric_limits<float>::min()});
-    const double max_cells = 4.0 * double(count) + 64.0;
-    for (int attempt = 0; attempt < 64; ++attempt) {
-      double cells = 1.0;
-      for (int k = 0; k < 3; ++k) {
-        dims_[k] = std::max(1, int(std::min(extent[k] / cell, 1e6f)) + 1);
-        cells *= double(dims_[k]);
-      }
-      if (cells <= max_cells) break;
-      cell *= float(std::cbrt(cells / max_cells)) * 1.01f;
-    }
-    origin_ = lo;
-    inverse_cell_ = 1.0f / cell;
-    const size_t cell_count = size_t(dims_[0]) * size_t(dims_[1]) * size_t(dims_[2]);
-    std::fill(ws_.cell_offsets.begin(), ws_.cell_offsets.begin() + long(cell_count) + 1, 0u);
-    for (size_t i = 0; i < count; ++i) {
-      int32_t* r = ws_.ranges.data() + 6 * i;
-      if (!cells_of(ws_.boxes.data() + 6 * size_t(ws_.moved_triangles[i]), r))
-        for (int k = 0; k < 3; ++k) r[k] = 1, r[3 + k] = 0;  // no cell (cannot happen: the grid covers it)
-      for (int z = r[2]; z <= r[5]; ++z)
-        for (int y = r[1]; y <= r[4]; ++y)
-          for (int x = r[0]; x <= r[3]; ++x) ++ws_.cell_offsets[linear(x, y, z) + 1];
-    }
-    for (size_t c = 0; c < cell_count; ++c) ws_.cell_offsets[c + 1] += ws_.cell_offsets[c];
-    // Fill from the back of each cell's run, so the offsets end where they began.
-    for (size_t i = count; i-- > 0;) {
-      const int32_t* r = ws_.ranges.data() + 6 * i;
-      for (int z = r[2]; z <= r[5]; ++z)
-        for (int y = r[1]; y <= r[4]; ++y)
-          for (int x = r[0]; x <= r[3]; ++x) ws_.cell_entries[--ws_.cell_offsets[linear(x, y, z) + 1]] = ws_.moved_triangles[i];
-    }
-    // The decrements above moved every cell's end back to its start: offsets[c + 1] now holds
-    // where cell c begins. Shift them down one place and close the last cell.
-    uint32_t entries = 0;
-    for (size_t i = 0; i < count; ++i) {
-      const int32_t* r = ws_.ranges.data() + 6 * i;
-      entries += uint32_t((r[3] - r[0] + 1) * (r[4] - r[1] + 1) * (r[5] - r[2] + 1));
-    }
-    for (size_t c = 0; c < cell_count; ++c) ws_.cell_offsets[c] = ws_.cell_offsets[c + 1];
-    ws_.cell_offsets[cell_count] = entries;
-    return true;
-  }
-
-  // Calls visit(c) once for every moved triangle c whose cells meet `box`'s.
-  template <class Visit>
-  void query(const float* box, Visit&& visit) {
-    int32_t r[6];
-    if (!cells_of(box, r)) return;
-    ++ws_.stamp;
-    if (ws_.stamp == 0) {  // wrapped: forget every old stamp
-      std::fill(ws_.stamps.begin(), ws_.stamps.end(), 0u);
-      ws_.stamp = 1;
-    }
-    for (int z = r[2]; z <= r[5]; ++z)
-      for (int y = r[1]; y <= r[4]; ++y)
-        for (int x = r[0]; x <= r[3]; ++x) {
-          const size_t c = linear(x, y, z);
-          for (uint32_t e = ws_.cell_offsets[c]; e < ws_.cell_offsets[c + 1]; ++e) {
-            const uint32_t t = ws_.cell_entries[e];
-            if (ws_.stamps[t] == ws_.stamp) continue;
-            ws_.stamps[t] = ws_.stamp;
-            visit(t);
-          }
-        }
-  }
-
- private:
-  // The cells of `box`, clipped to the grid; false when the box misses the grid.
-  bool cells_of(const float* box, int32_t* r) const {
-    for (int k = 0; k < 3; ++k) {
-      const float lo = (box[k] - origin_[k]) * inverse_cell_, hi = (box[3 + k] - origin_[k]) * inverse_cell_;
-      if (!(hi >= 0.0f) || !(lo < float(dims_[k]))) return false;
-      r[k] = std::max(0, int(std::floor(lo)));
-      r[3 + k] = std::min(dims_[k] - 1, int(std::floor(hi)));
-    }
-    return true;
-  }
-  size_t linear(int x, int y, int z) const {
-    return (size_t(z) * size_t(dims_[1]) + size_t(y)) * size_t(dims_[0]) + size_t(x);
-  }
-
-  GuardWorkspace& ws_;
-  glm::vec3 origin_{0.0f};
-  float inverse_cell_ = 1.0f;
-  int dims_[3] = {1, 1, 1};
-};
-
 bool share_corner(const uint32_t* a, const uint32_t* b) {
   return a[0] == b[0] || a[0] == b[1] || a[0] == b[2] || a[1] == b[0] || a[1] == b[1] || a[1] == b[2] ||
          a[2] == b[0] || a[2] == b[1] || a[2] == b[2];
@@ -133,6 +22,13 @@ bool share_corner(const uint32_t* a, const uint32_t* b) {
 
 bool boxes_meet(const float* a, const float* b) {
   return a[0] <= b[3] && b[0] <= a[3] && a[1] <= b[4] && b[1] <= a[4] && a[2] <= b[5] && b[2] <= a[5];
+}
+
+void triangle_box(const glm::vec3& p0, const glm::vec3& p1, const glm::vec3& p2, float* b) {
+  for (int k = 0; k < 3; ++k) {
+    b[k] = std::min({p0[k], p1[k], p2[k]});
+    b[3 + k] = std::max({p0[k], p1[k], p2[k]});
+  }
 }
 
 }  // namespace
@@ -144,78 +40,123 @@ GuardWorkspace make_guard_workspace(const ContactMesh& mesh, const AllocatorRef&
   ws.positions.resize(mesh.vertex_count);
   ws.moved.resize(mesh.vertex_count);
   ws.flagged.resize(mesh.vertex_count);
-  ws.moved_triangles.reserve(triangles);
+  ws.changed.resize(mesh.vertex_count);
+  ws.tested.resize(triangles);
+  ws.test_list.reserve(triangles);
   ws.boxes.resize(6 * triangles);
-  ws.cell_offsets.resize(4 * triangles + 66);
-  ws.cell_entries.resize(8 * triangles);
-  ws.ranges.resize(6 * triangles);
-  ws.stamps.assign(triangles, 0u);
+  ws.reach_boxes.resize(6 * triangles);
+  ws.node_boxes.resize(6 * mesh.hierarchy.nodes.size());
+  ws.node_flags.resize(mesh.hierarchy.nodes.size());
   return ws;
 }
 
 namespace {
 
+// x at welded vertex v from its factor.
+glm::vec3 blended_position(const Deformable& d, const ContactMesh& mesh, const DenseOutput& skelform,
+                           const DenseOutput& lbs, const GuardWorkspace& ws, uint32_t v) {
+  const uint32_t r = mesh.representative[v];
+  const float s = d.skelform_weight[r] * ws.factor[v];
+  const glm::vec3 l = lbs.positions[r];
+  return s == 0.0f ? l : l + s * (skelform.positions[r] - l);
+}
+
 // The intersection guard from the current factors (ws.factor): halves λ at the moved corners of
-// every pair LBS does not have, until none is left.
+// every pair LBS does not have, until none is left. Round one tests every triangle with a
+// moved corner; each later round only the triangles around the vertices the previous round
+// changed (a pair none of whose corners changed keeps its verdict).
 void guard_intersections(const Deformable& d, const ContactMesh& mesh, const DenseOutput& skelform,
                          const DenseOutput& lbs, GuardWorkspace& ws) {
-  const float* weight = d.skelform_weight.data();
   const uint32_t* tri = mesh.triangles.data();
-  for (uint32_t round = 0;; ++round) {
-    // This round's x at every welded vertex, and which of them differ from LBS.
-    for (uint32_t v = 0; v < mesh.vertex_count; ++v) {
-      const uint32_t r = mesh.representative[v];
-      const float s = weight[r] * ws.factor[v];
-      const glm::vec3 l = lbs.positions[r];
-      ws.positions[v] = s == 0.0f ? l : l + s * (skelform.positions[r] - l);
-      ws.moved[v] = ws.positions[v] != l;
+  const uint32_t* rep = mesh.representative.data();
+  for (uint32_t v = 0; v < mesh.vertex_count; ++v) {
+    ws.positions[v] = blended_position(d, mesh, skelform, lbs, ws, v);
+    ws.moved[v] = ws.positions[v] != lbs.positions[rep[v]];
+  }
+  // Boxes now and over every round (the corners only travel towards L), and the first round's
+  // triangles: those with a moved corner.
+  ws.test_list.clear();
+  for (uint32_t t = 0; t < mesh.triangle_count; ++t) {
+    const uint32_t* c = tri + 3 * size_t(t);
+    float* now = ws.boxes.data() + 6 * size_t(t);
+    float* reach = ws.reach_boxes.data() + 6 * size_t(t);
+    triangle_box(ws.positions[c[0]], ws.positions[c[1]], ws.positions[c[2]], now);
+    triangle_box(lbs.positions[rep[c[0]]], lbs.positions[rep[c[1]]], lbs.positions[rep[c[2]]], reach);
+    for (int k = 0; k < 3; ++k) {
+      reach[k] = std::min(reach[k], now[k]);
+      reach[3 + k] = std::max(reach[3 + k], now[3 + k]);
     }
-    ws.moved_triangles.clear();
-    for (uint32_t t = 0; t < mesh.triangle_count; ++t) {
-      const uint32_t* c = tri + 3 * size_t(t);
-      const glm::vec3 &p0 = ws.positions[c[0]], &p1 = ws.positions[c[1]], &p2 = ws.positions[c[2]];
-      float* b = ws.boxes.data() + 6 * size_t(t);
-      for (int k = 0; k < 3; ++k) {
-        b[k] = std::min({p0[k], p1[k], p2[k]});
-        b[3 + k] = std::max({p0[k], p1[k], p2[k]});
-      }
-      if (ws.moved[c[0]] || ws.moved[c[1]] || ws.moved[c[2]]) ws.moved_triangles.push_back(t);
+    const bool moved = ws.moved[c[0]] || ws.moved[c[1]] || ws.moved[c[2]];
+    ws.tested[t] = moved;
+    if (moved) ws.test_list.push_back(t);
+  }
+  if (ws.test_list.empty()) return;
+  for (float b : ws.reach_boxes)
+    if (!std::isfinite(b)) {
+      std::fill(ws.factor.begin(), ws.factor.end(), 0.0f);  // a non-finite position: LBS
+      return;
     }
-    MovedGrid grid(ws);
-    if (!grid.build()) return;
+  // Round one on the tight boxes at x; later rounds (corners moving towards L) on the reach.
+  refit_triangle_hierarchy(mesh.hierarchy, ws.boxes.data(), ws.node_boxes.data());
+  for (uint32_t round = 0; !ws.test_list.empty(); ++round) {
     std::fill(ws.flagged.begin(), ws.flagged.end(), uint8_t(0));
     bool added = false;
-    for (uint32_t t = 0; t < mesh.triangle_count; ++t) {
+    // A pair whose boxes meet now, not adjacent, intersecting at x and not at L.
+    auto check = [&](uint32_t t, uint32_t s) {
       const uint32_t* ct = tri + 3 * size_t(t);
-      const bool t_moved = ws.moved[ct[0]] || ws.moved[ct[1]] || ws.moved[ct[2]];
-      const float* bt = ws.boxes.data() + 6 * size_t(t);
-      grid.query(bt, [&](uint32_t s) {
-        // Each pair once: a moved t meets the moved s < t here, and s > t when s queries.
-        if (s == t || (t_moved && s > t)) return;
-        const uint32_t* cs = tri + 3 * size_t(s);
-        if (share_corner(ct, cs) || !boxes_meet(bt, ws.boxes.data() + 6 * size_t(s))) return;
-        if (!geometry::triangles_intersect(widen(ws.positions[ct[0]]), widen(ws.positions[ct[1]]),
-                                           widen(ws.positions[ct[2]]), widen(ws.positions[cs[0]]),
-                                           widen(ws.positions[cs[1]]), widen(ws.positions[cs[2]])))
-          return;
-        const glm::vec3* l = lbs.positions;
-        const uint32_t* rep = mesh.representative.data();
-        if (geometry::triangles_intersect(widen(l[rep[ct[0]]]), widen(l[rep[ct[1]]]), widen(l[rep[ct[2]]]),
-                                          widen(l[rep[cs[0]]]), widen(l[rep[cs[1]]]), widen(l[rep[cs[2]]])))
-          return;  // LBS has this pair too
-        for (int k = 0; k < 3; ++k) ws.flagged[ct[k]] = ws.flagged[cs[k]] = 1;
-        added = true;
-      });
+      const uint32_t* cs = tri + 3 * size_t(s);
+      if (share_corner(ct, cs) || !boxes_meet(ws.boxes.data() + 6 * size_t(t), ws.boxes.data() + 6 * size_t(s))) return;
+      if (!geometry::triangles_intersect(widen(ws.positions[ct[0]]), widen(ws.positions[ct[1]]),
+                                         widen(ws.positions[ct[2]]), widen(ws.positions[cs[0]]),
+                                         widen(ws.positions[cs[1]]), widen(ws.positions[cs[2]])))
+        return;
+      const glm::vec3* l = lbs.positions;
+      if (geometry::triangles_intersect(widen(l[rep[ct[0]]]), widen(l[rep[ct[1]]]), widen(l[rep[ct[2]]]),
+                                        widen(l[rep[cs[0]]]), widen(l[rep[cs[1]]]), widen(l[rep[cs[2]]])))
+        return;  // LBS has this pair too
+      for (int k = 0; k < 3; ++k) ws.flagged[ct[k]] = ws.flagged[cs[k]] = 1;
+      added = true;
+    };
+    if (round == 0) {
+      // Every pair with a moved triangle: the hierarchy against itself.
+      self_pairs_triangle_hierarchy(mesh.hierarchy, ws.node_boxes.data(), ws.boxes.data(), ws.tested.data(),
+                                    ws.node_flags.data(), check);
+    } else {
+      if (round == 1) refit_triangle_hierarchy(mesh.hierarchy, ws.reach_boxes.data(), ws.node_boxes.data());
+      for (uint32_t t : ws.test_list) {
+        const float* bt = ws.boxes.data() + 6 * size_t(t);
+        query_triangle_hierarchy(mesh.hierarchy, ws.node_boxes.data(), ws.reach_boxes.data(), bt, [&](uint32_t s) {
+          // Each pair once: two triangles of this round's list meet when the larger queries.
+          if (s == t || (ws.tested[s] && s > t)) return;
+          check(t, s);
+        });
+      }
     }
+    for (uint32_t t : ws.test_list) ws.tested[t] = 0;
+    ws.test_list.clear();
     if (!added) return;
     ++ws.rounds;
-    bool reduced = false;
+    // Halve λ at the flagged moved corners (0 after kGuardHalvings rounds), move them, and
+    // list the triangles around them for the next round.
+    std::fill(ws.changed.begin(), ws.changed.end(), uint8_t(0));
     for (uint32_t v = 0; v < mesh.vertex_count; ++v) {
       if (!ws.flagged[v] || !ws.moved[v]) continue;
       ws.factor[v] = round + 1 >= kGuardHalvings ? 0.0f : 0.5f * ws.factor[v];
-      reduced = true;
+      ws.positions[v] = blended_position(d, mesh, skelform, lbs, ws, v);
+      ws.moved[v] = ws.positions[v] != lbs.positions[rep[v]];
+      ws.changed[v] = 1;
     }
-    if (!reduced) return;  // cannot happen: an added pair has a moved corner
+    for (uint32_t v = 0; v < mesh.vertex_count; ++v) {
+      if (!ws.changed[v]) continue;
+      for (uint32_t k = mesh.incident_offsets[v]; k < mesh.incident_offsets[v + 1]; ++k) {
+        const uint32_t t = mesh.incident[k];
+        if (ws.tested[t]) continue;
+        ws.tested[t] = 1;
+        ws.test_list.push_back(t);
+        const uint32_t* c = tri + 3 * size_t(t);
+        triangle_box(ws.positions[c[0]], ws.positions[c[1]], ws.positions[c[2]], ws.boxes.data() + 6 * size_t(t));
+      }
+    }
   }
 }
 

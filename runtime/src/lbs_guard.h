@@ -15,7 +15,9 @@
 // add one (nearly everywhere), λ stays 1 and its result is kept whole.
 //
 // The triangle test is geometry::triangles_intersect (double precision, the metric's own);
-// the broad phase is a uniform grid over the moved triangles, queried with every triangle.
+// the broad phase is the welded mesh's triangle hierarchy (triangle_bvh.h), refitted once per
+// evaluation to every triangle's reach (its boxes at x and at L), queried by the triangles
+// each round tests.
 // Volume, on a closed mesh: after the intersection guard, if the result's volume is further
 // from the rest volume (times the pose's reference scale cubed: the bind volume) than LBS's,
 // every λ is scaled by the largest μ ∈ [0, 1] that brings it back within LBS's error (the
@@ -49,23 +51,24 @@ struct GuardWorkspace {
   explicit GuardWorkspace(const AllocatorRef& a)
       : factor(CallbackAllocator<float>(a)), positions(CallbackAllocator<glm::vec3>(a)),
         moved(CallbackAllocator<uint8_t>(a)), flagged(CallbackAllocator<uint8_t>(a)),
-        moved_triangles(CallbackAllocator<uint32_t>(a)), boxes(CallbackAllocator<float>(a)),
-        cell_offsets(CallbackAllocator<uint32_t>(a)), cell_entries(CallbackAllocator<uint32_t>(a)),
-        ranges(CallbackAllocator<int32_t>(a)), stamps(CallbackAllocator<uint32_t>(a)) {}
-  Array<float> factor;              // λ per welded vertex
-  Array<glm::vec3> positions;       // x per welded vertex
-  Array<uint8_t> moved;             // per welded vertex: x differs from L
-  Array<uint8_t> flagged;           // per welded vertex: a corner of an added pair this round
-  Array<uint32_t> moved_triangles;  // triangles with a moved corner
-  Array<float> boxes;               // per triangle: its box (lo xyz, hi xyz)
-  Array<uint32_t> cell_offsets;     // grid over the moved triangles (CSR)
-  Array<uint32_t> cell_entries;
-  Array<int32_t> ranges;            // per moved triangle: its cells (lo xyz, hi xyz)
-  Array<uint32_t> stamps;           // per triangle: the last query that listed it
-  uint32_t stamp = 0;
-  uint32_t rounds = 0;              // of the last evaluation
-  uint32_t corrected = 0;           // welded vertices with λ < 1 after the last evaluation
-  float volume_share = 1.0f;        // μ of the last evaluation
+        changed(CallbackAllocator<uint8_t>(a)), tested(CallbackAllocator<uint8_t>(a)),
+        test_list(CallbackAllocator<uint32_t>(a)), boxes(CallbackAllocator<float>(a)),
+        reach_boxes(CallbackAllocator<float>(a)), node_boxes(CallbackAllocator<float>(a)),
+        node_flags(CallbackAllocator<uint8_t>(a)) {}
+  Array<float> factor;           // λ per welded vertex
+  Array<glm::vec3> positions;    // x per welded vertex
+  Array<uint8_t> moved;          // per welded vertex: x differs from L
+  Array<uint8_t> flagged;        // per welded vertex: a corner of an added pair this round
+  Array<uint8_t> changed;        // per welded vertex: its λ changed this round
+  Array<uint8_t> tested;         // per triangle: in this round's list
+  Array<uint32_t> test_list;     // the triangles this round tests
+  Array<float> boxes;            // per triangle: its box at x (lo xyz, hi xyz)
+  Array<float> reach_boxes;      // per triangle: its box over every round (x and L)
+  Array<float> node_boxes;       // ContactMesh::hierarchy refitted to reach_boxes
+  Array<uint8_t> node_flags;     // per node: it holds a triangle of the first round
+  uint32_t rounds = 0;           // of the last evaluation
+  uint32_t corrected = 0;        // welded vertices with λ < 1 after the last evaluation
+  float volume_share = 1.0f;     // μ of the last evaluation
 };
 
 // Throws std::bad_alloc.

@@ -41,14 +41,17 @@ inline bool triangles_intersect(const glm::dvec3& a0, const glm::dvec3& a1, cons
   const glm::dvec3 edge_b[3] = {b[1] - b[0], b[2] - b[1], b[0] - b[2]};
   const glm::dvec3 normal_a = glm::cross(edge_a[0], edge_a[1]);
   const glm::dvec3 normal_b = glm::cross(edge_b[0], edge_b[1]);
+  // Any separating axis decides, so the order only matters for speed: the face normals, then
+  // the in-plane edge normals (which separate the near-coplanar neighbours of a smooth surface,
+  // the pairs a mesh's broad phase yields most), then the edge-edge axes.
   if (detail::separated_along(normal_a, a, b) || detail::separated_along(normal_b, a, b)) return false;
-  for (const glm::dvec3& ea : edge_a)
-    for (const glm::dvec3& eb : edge_b)
-      if (detail::separated_along(glm::cross(ea, eb), a, b)) return false;
   for (const glm::dvec3& ea : edge_a)
     if (detail::separated_along(glm::cross(normal_a, ea), a, b)) return false;
   for (const glm::dvec3& eb : edge_b)
     if (detail::separated_along(glm::cross(normal_b, eb), a, b)) return false;
+  for (const glm::dvec3& ea : edge_a)
+    for (const glm::dvec3& eb : edge_b)
+      if (detail::separated_along(glm::cross(ea, eb), a, b)) return false;
   return true;
 }
 
