@@ -12,6 +12,7 @@
 #include "skelform/bake/input.h"
 #include "skelform/skelform.h"
 #include "capsule_glb.h"
+#include "glb_edit.h"
 #include "test_support.h"
 
 #include <doctest/doctest.h>
@@ -33,6 +34,8 @@
 namespace {
 
 using Json = nlohmann::ordered_json;
+using skelform::test::Glb;
+using skelform::test::u32_at;
 
 std::string read_file(const std::filesystem::path& path) {
   std::ifstream in(path, std::ios::binary);
@@ -84,46 +87,6 @@ void load_memory(const std::string& bytes, Load& out, const sf_allocator* alloca
 }
 
 bool contains(const std::string& text, const std::string& part) { return text.find(part) != std::string::npos; }
-
-uint32_t u32_at(const std::string& bytes, size_t offset) {
-  uint32_t v;
-  std::memcpy(&v, bytes.data() + offset, 4);
-  return v;
-}
-
-// A GLB split into its JSON (editable, member order kept) and BIN chunk, and put back.
-struct Glb {
-  Json json;
-  std::string bin;
-
-  explicit Glb(const std::string& glb) {
-    const uint32_t json_length = u32_at(glb, 12);
-    json = Json::parse(glb.substr(20, json_length));
-    const size_t bin_header = 20 + json_length;
-    if (bin_header + 8 <= glb.size()) bin = glb.substr(bin_header + 8, u32_at(glb, bin_header));
-  }
-
-  std::string bytes() const { return skelform::bake::glb_container(json.dump(), bin); }
-
-  Json& extension() { return json["extensions"]["SKELFORM_skeletal_deformation"]; }
-  Json& deformable() { return extension()["deformables"][0]; }
-  Json& accessor(const char* group, const char* name) {
-    return json["accessors"][deformable()[group][name].get<size_t>()];
-  }
-  // Byte offset in BIN of element `element` (of `element_bytes`) of an extension accessor.
-  size_t offset_of(Json& accessor, size_t element, size_t element_bytes) {
-    const Json& view = json["bufferViews"][accessor["bufferView"].get<size_t>()];
-    return view.value("byteOffset", size_t{0}) + accessor.value("byteOffset", size_t{0}) + element * element_bytes;
-  }
-  void put_u32(size_t offset, uint32_t value) { std::memcpy(&bin[offset], &value, 4); }
-  void put_u16(size_t offset, uint16_t value) { std::memcpy(&bin[offset], &value, 2); }
-  void put_f32(size_t offset, float value) { std::memcpy(&bin[offset], &value, 4); }
-  float f32(size_t offset) const {
-    float v;
-    std::memcpy(&v, bin.data() + offset, 4);
-    return v;
-  }
-};
 
 std::string base64(const std::string& bytes) {
   static const char table[] = "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";

@@ -427,3 +427,32 @@ TEST_CASE("real characters: bind pose is one common rigid transform (identity wh
 }
 
 }  // TEST_SUITE
+
+// Blender exports the armature's current pose as the static node transforms, not its rest
+// pose: in the Quaternius characters the static pose turns joints up to ~80 degrees away from
+// the pose the inverse binds were taken in. The bind pose is then every joint at the skinned
+// node's world transform (which places the mesh as stored), not the static pose.
+TEST_CASE("gltf animation: the bind pose of a file whose static pose is posed is the skinned node's transform") {
+  SKELFORM_REQUIRE_DATA(path, "quaternius/animals_pack/Wolf.glb");
+  const GltfAnimation gltf = GltfAnimation::load_file(path.string());
+  const std::vector<float> still = gltf.joint_matrices(0, kStaticPose, 0.0);
+  const std::vector<float> bind = gltf.bind_pose_joint_matrices(0);
+  REQUIRE(still.size() == bind.size());
+  double spread_static = 0, spread_bind = 0;
+  for (size_t i = 0; i < bind.size(); ++i) {
+    spread_static = std::max(spread_static, double(std::fabs(still[i] - still[i % 16])));
+    spread_bind = std::max(spread_bind, double(std::fabs(bind[i] - bind[i % 16])));
+  }
+  CHECK(spread_static > 1.0);  // the static pose is a posed skeleton (joint matrices differ)
+  CHECK(spread_bind == 0.0);   // the bind pose: one transform for every joint
+  const std::vector<float> world = gltf.node_world_matrices(kStaticPose, 0.0);
+  for (size_t n = 0; n < gltf.node_count(); ++n) {
+    if (gltf.node_skin(n) != 0) continue;
+    for (size_t i = 0; i < 16; ++i) CHECK(bind[i] == world[16 * n + i]);
+  }
+  // Wolf's armature: a 100 × scale and the Y-up turn.
+  const double scale = std::cbrt(std::fabs(double(bind[0]) * (double(bind[5]) * bind[10] - double(bind[9]) * bind[6]) -
+                                           double(bind[4]) * (double(bind[1]) * bind[10] - double(bind[9]) * bind[2]) +
+                                           double(bind[8]) * (double(bind[1]) * bind[6] - double(bind[5]) * bind[2])));
+  CHECK(scale == doctest::Approx(100.0).epsilon(1e-5));
+}

@@ -1,0 +1,255 @@
+// runtime/src/lbs_guard.h through the C API: what skelform promises against linear blend
+// skinning on any character, in any pose. Every intersecting pair of the output is one LBS has
+// too; a closed mesh's volume is never further from its bind volume than LBS's; a vertex with
+// one influence is LBS's result bit for bit. And runtime/src/instance.h JointTransforms: joint
+// matrices scaled uniformly give the unscaled result scaled (Blender's armature scale of 100,
+// Mixamo's 0.01), and a joint scaled on its own scales the thickness of what it drives.
+#include "gltf_animation.h"
+#include "runtime/runtime_models.h"
+#include "skelform/bake/metrics.h"
+#include "skelform/bake/self_intersection.h"
+
+#include <glm/gtc/matrix_transform.hpp>
+#include <glm/gtc/quaternion.hpp>
+
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+#include <map>
+#include <tuple>
+
+namespace {
+
+using skelform::bake::TriangleMesh;
+using skelform::bake::Vec3;
+using skelform::test::RuntimeModel;
+
+constexpr double kPi = 3.14159265358979323846;
+
+// Deformable 0's dense mesh welded by rest position (the metric's rule), to pose with any
+// method's output.
+struct Welded {
+  std::vector<uint32_t> first;  // per welded vertex: its first dense vertex
+  TriangleMesh rest;
+  double rest_volume = 0;
+};
+
+Welded weld(const RuntimeModel& model) {
+  const skelform::samples::GltfAnimation gltf = skelform::samples::GltfAnimation::load_memory(model.baked_glb, model.name);
+  sf_deformable_info info{};
+  REQUIRE(sf_asset_deformable_info(model.asset, 0, &info) == SF_OK);
+  Welded w;
+  std::map<std::tuple<float, float, float>, uint32_t> ids;
+  std::vector<uint32_t> welded;
+  for (const auto& prim : model.primitives)
+    for (const glm::vec3& p : prim.positions) {
+      auto it = ids.find({p.x, p.y, p.z});
+      if (it == ids.end()) {
+        it = ids.emplace(std::make_tuple(p.x, p.y, p.z), uint32_t(w.rest.positions.size())).first;
+        w.rest.positions.push_back(Vec3(p));
+        w.first.push_back(uint32_t(welded.size()));
+      }
+      welded.push_back(it->second);
+    }
+  for (uint32_t p = 0; p < info.primitive_count; ++p) {
+    sf_primitive_info pinfo{};
+    REQUIRE(sf_asset_primitive_info(model.asset, 0, p, &pinfo) == SF_OK);
+    const std::vector<uint32_t> tris = gltf.primitive_triangles(size_t(info.mesh), size_t(pinfo.primitive));
+    for (size_t t = 0; t + 2 < tris.size(); t += 3) {
+      const skelform::bake::Triangle tri = {welded[pinfo.first_vertex + tris[t]], welded[pinfo.first_vertex + tris[t + 1]],
+                                            welded[pinfo.first_vertex + tris[t + 2]]};
+      if (tri[0] != tri[1] && tri[1] != tri[2] && tri[2] != tri[0]) w.rest.triangles.push_back(tri);
+    }
+  }
+  w.rest_volume = skelform::bake::enclosed_volume(w.rest);
+  return w;
+}
+
+TriangleMesh posed(const Welded& w, const std::vector<glm::vec3>& positions) {
+  TriangleMesh m = w.rest;
+  for (size_t v = 0; v < m.positions.size(); ++v) m.positions[v] = Vec3(positions[w.first[v]]);
+  return m;
+}
+
+struct Instance {
+  sf_instance* handle = nullptr;
+  explicit Instance(const sf_asset* asset) { REQUIRE(sf_instance_create(asset, 0, &handle) == SF_OK); }
+  ~Instance() { sf_instance_destroy(handle); }
+  Instance(const Instance&) = delete;
+  Instance& operator=(const Instance&) = delete;
+  skelform::test::Evaluated evaluate(const sf_asset* asset, const std::vector<glm::mat4>& pose, uint32_t method,
+                                     uint32_t flags = 0) {
+    REQUIRE(sf_instance_set_joint_matrices(handle, &pose[0][0][0], pose.size(), 0) == SF_OK);
+    sf_eval_options options{};
+    options.method = method;
+    options.flags = flags;
+    REQUIRE(sf_instance_evaluate(handle, &options) == SF_OK);
+    return skelform::test::write_all(handle, asset);
+  }
+};
+
+// The pairs of `skelform` not in `lbs` (both sorted).
+size_t pairs_outside(const std::vector<std::pair<uint32_t, uint32_t>>& skelform,
+                     const std::vector<std::pair<uint32_t, uint32_t>>& lbs) {
+  size_t outside = 0;
+  for (const auto& p : skelform) outside += std::binary_search(lbs.begin(), lbs.end(), p) ? 0 : 1;
+  return outside;
+}
+
+// A single influence: one joint carries ≥ 0.999 of the vertex's (JOINTS_0/WEIGHTS_0) skin.
+bool single_influence(const skelform::test::OriginalPrimitive& p, size_t v) {
+  float largest = 0, total = 0;
+  for (int k = 0; k < 4; ++k) {
+    float same = 0;
+    for (int i = 0; i < 4; ++i)
+      if (p.joints[v][i] == p.joints[v][k]) same += p.weights[v][i];
+    largest = std::max(largest, same);
+    total += p.weights[v][k];
+  }
+  return total > 0 && largest / total >= 0.999f;
+}
+
+glm::mat4 bend_twist(double bend_degrees, double twist_degrees) {
+  return glm::mat4_cast(glm::angleAxis(float(bend_degrees * kPi / 180), glm::vec3(1, 0, 0)) *
+                        glm::angleAxis(float(twist_degrees * kPi / 180), glm::vec3(0, 0, 1)));
+}
+
+}  // namespace
+
+TEST_CASE("guard: every intersecting pair of the output is one LBS has; a closed mesh's volume error never exceeds LBS's") {
+  // The two capsules bent and twisted from 0 to 150 degrees (their child joint is at the
+  // origin), evaluated from rest and incrementally through the bend.
+  for (const RuntimeModel* model : {&skelform::test::capsule_model(), &skelform::test::bent_capsule_model()}) {
+    const Welded w = weld(*model);
+    Instance skelform(model->asset), lbs(model->asset);
+    size_t frames = 0, skelform_pairs = 0, lbs_pairs = 0;
+    for (int bend = 0; bend <= 150; bend += 10) {
+      for (double twist : {0.0, 90.0}) {
+        const std::vector<glm::mat4> pose = {glm::mat4(1.0f), bend_twist(bend, twist)};
+        const TriangleMesh s = posed(w, skelform.evaluate(model->asset, pose, SF_METHOD_SKELFORM).positions);
+        const TriangleMesh l = posed(w, lbs.evaluate(model->asset, pose, SF_METHOD_LBS).positions);
+        const auto sp = skelform::bake::self_intersecting_pairs(s);
+        const auto lp = skelform::bake::self_intersecting_pairs(l);
+        INFO(model->name << " bent " << bend << ", twisted " << twist << ": skelform " << sp.size() << " pairs, LBS "
+                         << lp.size());
+        CHECK(pairs_outside(sp, lp) == 0);
+        const double skelform_dv = std::fabs(skelform::bake::enclosed_volume(s) / w.rest_volume - 1.0);
+        const double lbs_dv = std::fabs(skelform::bake::enclosed_volume(l) / w.rest_volume - 1.0);
+        CHECK(skelform_dv <= lbs_dv + 1e-6);
+        ++frames;
+        skelform_pairs += sp.size();
+        lbs_pairs += lp.size();
+      }
+    }
+    MESSAGE(model->name << ": " << frames << " poses, pairs skelform " << skelform_pairs << " / LBS " << lbs_pairs);
+  }
+}
+
+TEST_CASE("guard: on a real animation every frame's pairs are LBS's") {
+  const RuntimeModel* model = skelform::test::sample_model("Fox/Fox.glb");
+  if (!model) return;
+  const skelform::samples::GltfAnimation gltf =
+      skelform::samples::GltfAnimation::load_file(skelform::test::data_file("Fox/Fox.glb").string());
+  const Welded w = weld(*model);
+  sf_deformable_info info{};
+  REQUIRE(sf_asset_deformable_info(model->asset, 0, &info) == SF_OK);
+  for (size_t a = 0; a < gltf.animations().size(); ++a) {
+    Instance skelform(model->asset), lbs(model->asset);
+    const auto& anim = gltf.animations()[a];
+    size_t outside = 0, frames = 0;
+    for (double t = anim.start; t <= anim.end + 1e-9; t += 1.0 / 30.0, ++frames) {
+      const std::vector<float> m = gltf.joint_matrices(size_t(info.skin), a, t);
+      std::vector<glm::mat4> pose(m.size() / 16);
+      for (size_t j = 0; j < pose.size(); ++j)
+        for (int c = 0; c < 16; ++c) pose[j][c / 4][c % 4] = m[16 * j + size_t(c)];
+      const auto sp = skelform::bake::self_intersecting_pairs(
+          posed(w, skelform.evaluate(model->asset, pose, SF_METHOD_SKELFORM, frames == 0 ? SF_EVAL_FROM_REST : 0).positions));
+      const auto lp = skelform::bake::self_intersecting_pairs(posed(w, lbs.evaluate(model->asset, pose, SF_METHOD_LBS).positions));
+      outside += pairs_outside(sp, lp);
+    }
+    INFO("Fox '" << anim.name << "', " << frames << " frames");
+    CHECK(outside == 0);
+  }
+}
+
+TEST_CASE("guard: a vertex with one influence is LBS's result, bit for bit") {
+  const RuntimeModel& model = skelform::test::capsule_model();
+  Instance skelform(model.asset), lbs(model.asset);
+  size_t rigid = 0;
+  for (int bend = 0; bend <= 140; bend += 35) {
+    const std::vector<glm::mat4> pose = {glm::mat4(1.0f), bend_twist(bend, 60)};
+    const skelform::test::Evaluated s = skelform.evaluate(model.asset, pose, SF_METHOD_SKELFORM);
+    const skelform::test::Evaluated l = lbs.evaluate(model.asset, pose, SF_METHOD_LBS);
+    size_t first = 0;
+    for (const auto& p : model.primitives) {
+      for (size_t v = 0; v < p.positions.size(); ++v) {
+        if (!single_influence(p, v)) continue;
+        ++rigid;
+        CHECK(std::memcmp(&s.positions[first + v], &l.positions[first + v], sizeof(glm::vec3)) == 0);
+        CHECK(std::memcmp(&s.normals[first + v], &l.normals[first + v], sizeof(glm::vec3)) == 0);
+      }
+      first += p.positions.size();
+    }
+  }
+  CHECK(rigid > 100);
+}
+
+TEST_CASE("scale: joint matrices scaled by s give the unscaled result scaled by s") {
+  // Blender exports centimetre rigs with an armature scale of 100, Mixamo with 0.01: the
+  // joint matrices are rotation x uniform scale. Scaling every matrix by s about the origin
+  // must scale the output by s, and the rest pose (identity x s) must be the stored mesh x s.
+  const RuntimeModel& model = skelform::test::bent_capsule_model();
+  const std::vector<glm::mat4> pose = {glm::mat4(1.0f), bend_twist(70, 40)};
+  Instance reference(model.asset);
+  const skelform::test::Evaluated unscaled = reference.evaluate(model.asset, pose, SF_METHOD_SKELFORM, SF_EVAL_FROM_REST);
+  for (float s : {100.0f, 0.01f, 3.7f}) {
+    const glm::mat4 scale = glm::scale(glm::mat4(1.0f), glm::vec3(s));
+    Instance scaled(model.asset);
+    const skelform::test::Evaluated e =
+        scaled.evaluate(model.asset, {scale * pose[0], scale * pose[1]}, SF_METHOD_SKELFORM, SF_EVAL_FROM_REST);
+    double worst = 0, normal_worst = 0;
+    for (size_t v = 0; v < e.positions.size(); ++v) {
+      worst = std::max(worst, double(glm::length(e.positions[v] - s * unscaled.positions[v])));
+      normal_worst = std::max(normal_worst, double(glm::length(e.normals[v] - unscaled.normals[v])));
+    }
+    INFO("scale " << s << ": largest difference " << worst / (s * model.diagonal) << " of the diagonal");
+    CHECK(worst <= 1e-5 * s * model.diagonal);
+    CHECK(normal_worst <= 1e-4);
+    // The rest pose at that scale: the stored mesh, scaled.
+    Instance rest(model.asset);
+    const skelform::test::Evaluated r = rest.evaluate(model.asset, {scale, scale}, SF_METHOD_SKELFORM, SF_EVAL_FROM_REST);
+    double rest_worst = 0;
+    for (size_t v = 0; v < r.positions.size(); ++v)
+      rest_worst = std::max(rest_worst, double(glm::length(r.positions[v] - s * model.primitives[0].positions[v])));
+    CHECK(rest_worst <= 1e-5 * s * model.diagonal);
+  }
+}
+
+TEST_CASE("scale: a joint scaled on its own scales the thickness of what it drives") {
+  // The child joint scaled by k about the joint (the origin): the child's part, which moves
+  // with it alone, is LBS's exact scaling; the blend zone's distance from the axis lies
+  // between the parent's 1 and the child's k times its rest distance.
+  const RuntimeModel& model = skelform::test::capsule_model();
+  const skelform::test::OriginalPrimitive& capsule = model.primitives[0];
+  for (float k : {1.5f, 0.6f}) {
+    const std::vector<glm::mat4> pose = {glm::mat4(1.0f), glm::scale(glm::mat4(1.0f), glm::vec3(k))};
+    Instance skelform(model.asset), lbs(model.asset);
+    const skelform::test::Evaluated s = skelform.evaluate(model.asset, pose, SF_METHOD_SKELFORM, SF_EVAL_FROM_REST);
+    const skelform::test::Evaluated l = lbs.evaluate(model.asset, pose, SF_METHOD_LBS);
+    size_t blended = 0;
+    for (size_t v = 0; v < capsule.positions.size(); ++v) {
+      const glm::vec3 p = capsule.positions[v];
+      const float rest_radius = std::hypot(p.x, p.y);
+      if (rest_radius < 1e-3f) continue;
+      const float radius = std::hypot(s.positions[v].x, s.positions[v].y) / rest_radius;
+      if (single_influence(capsule, v)) {
+        CHECK(s.positions[v] == l.positions[v]);
+      } else {
+        ++blended;
+        CHECK(radius >= std::min(1.0f, k) - 1e-4f);
+        CHECK(radius <= std::max(1.0f, k) + 1e-4f);
+      }
+    }
+    CHECK(blended > 20);
+  }
+}

@@ -1,0 +1,40 @@
+#!/bin/sh
+# skelform-quality end to end: its command line refuses bad use with one line and the
+# documented exit codes; on the procedural character (always available) the JSON report holds
+# what --check decides, and --check passes there (LBS adds no pair on it and skelform none).
+#   quality_cli_test.sh SKELFORM_QUALITY SKELFORM_CHARACTER WORK_DIR
+set -u
+QUALITY=$1 CHARACTER=$2 WORK=$3
+rm -rf "$WORK" && mkdir -p "$WORK"
+. "$(dirname "$0")/cli_test_lib.sh"
+
+expect_failure "$QUALITY" "$WORK/none" 1
+expect_failure "$QUALITY" "$WORK/none" 1 "$WORK/x.glb" --frames 1
+expect_failure "$QUALITY" "$WORK/none" 1 "$WORK/x.glb" --bogus
+expect_failure "$QUALITY" "$WORK/none" 1 "$WORK/x.glb" --waive everything
+expect_failure "$QUALITY" "$WORK/none" 3 "$WORK/missing.glb"
+
+"$CHARACTER" -o "$WORK/character.glb" >/dev/null || fail "skelform-character"
+"$QUALITY" "$WORK/character.glb" --frames 3 --json -q >"$WORK/report.json" || fail "--json exited $?"
+python3 - "$WORK/report.json" <<'PY' || fail "the JSON report"
+import json, sys
+report = json.load(open(sys.argv[1]))
+f = report["files"][0]
+assert "refused" not in f, f
+assert f["closed"] is True, "the character is closed"
+assert [a["name"] for a in f["animations"]] == ["walk", "bend"], f["animations"]
+for a in f["animations"]:
+    assert a["frames"] == 3 and len(a["pairs_added_per_frame"]) == 3
+    for skelform, lbs in a["pairs_added_per_frame"]:
+        assert skelform <= lbs, (a["name"], skelform, lbs)
+    v = a["volume_change"]["mean"]
+    assert v["skelform"] <= v["lbs"], v
+assert f["rest_error"] <= 1e-5 and f["bind_error"] <= 1e-5, (f["rest_error"], f["bind_error"])
+assert f["total"]["rigid_deviation"] <= 1e-6
+assert report["broken"] == [], report["broken"]
+PY
+"$QUALITY" "$WORK/character.glb" --frames 3 --check -q >"$WORK/check.txt" || fail "--check exited $? on the character"
+grep -q "acceptance: every line holds" "$WORK/check.txt" || fail "--check summary: $(tail -3 "$WORK/check.txt")"
+
+[ "$failures" -eq 0 ] || exit 1
+echo "quality_cli: all checks passed"
