@@ -41,6 +41,7 @@ GuardWorkspace make_guard_workspace(const ContactMesh& mesh, const AllocatorRef&
   ws.moved.resize(mesh.vertex_count);
   ws.flagged.resize(mesh.vertex_count);
   ws.changed.resize(mesh.vertex_count);
+  ws.flagged_list.reserve(mesh.vertex_count);
   ws.tested.resize(triangles);
   ws.test_list.reserve(triangles);
   ws.boxes.resize(6 * triangles);
@@ -99,7 +100,7 @@ void guard_intersections(const Deformable& d, const ContactMesh& mesh, const Den
   // Round one on the tight boxes at x; later rounds (corners moving towards L) on the reach.
   refit_triangle_hierarchy(mesh.hierarchy, ws.boxes.data(), ws.node_boxes.data());
   for (uint32_t round = 0; !ws.test_list.empty(); ++round) {
-    std::fill(ws.flagged.begin(), ws.flagged.end(), uint8_t(0));
+    ws.flagged_list.clear();
     bool added = false;
     // A pair whose boxes meet now, not adjacent, intersecting at x and not at L.
     auto check = [&](uint32_t t, uint32_t s) {
@@ -114,7 +115,11 @@ void guard_intersections(const Deformable& d, const ContactMesh& mesh, const Den
       if (geometry::triangles_intersect(widen(l[rep[ct[0]]]), widen(l[rep[ct[1]]]), widen(l[rep[ct[2]]]),
                                         widen(l[rep[cs[0]]]), widen(l[rep[cs[1]]]), widen(l[rep[cs[2]]])))
         return;  // LBS has this pair too
-      for (int k = 0; k < 3; ++k) ws.flagged[ct[k]] = ws.flagged[cs[k]] = 1;
+      for (uint32_t v : {ct[0], ct[1], ct[2], cs[0], cs[1], cs[2]})
+        if (!ws.flagged[v]) {
+          ws.flagged[v] = 1;
+          ws.flagged_list.push_back(v);  // capacity for every vertex: no allocation
+        }
       added = true;
     };
     if (round == 0) {
@@ -138,16 +143,17 @@ void guard_intersections(const Deformable& d, const ContactMesh& mesh, const Den
     ++ws.rounds;
     // Halve λ at the flagged moved corners (0 after kGuardHalvings rounds), move them, and
     // list the triangles around them for the next round.
-    std::fill(ws.changed.begin(), ws.changed.end(), uint8_t(0));
-    for (uint32_t v = 0; v < mesh.vertex_count; ++v) {
-      if (!ws.flagged[v] || !ws.moved[v]) continue;
+    for (uint32_t v : ws.flagged_list) {
+      ws.flagged[v] = 0;
+      ws.changed[v] = ws.moved[v];
+      if (!ws.moved[v]) continue;
       ws.factor[v] = round + 1 >= kGuardHalvings ? 0.0f : 0.5f * ws.factor[v];
       ws.positions[v] = blended_position(d, mesh, skelform, lbs, ws, v);
       ws.moved[v] = ws.positions[v] != lbs.positions[rep[v]];
-      ws.changed[v] = 1;
     }
-    for (uint32_t v = 0; v < mesh.vertex_count; ++v) {
+    for (uint32_t v : ws.flagged_list) {
       if (!ws.changed[v]) continue;
+      ws.changed[v] = 0;
       for (uint32_t k = mesh.incident_offsets[v]; k < mesh.incident_offsets[v + 1]; ++k) {
         const uint32_t t = mesh.incident[k];
         if (ws.tested[t]) continue;

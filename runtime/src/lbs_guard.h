@@ -51,7 +51,8 @@ struct GuardWorkspace {
   explicit GuardWorkspace(const AllocatorRef& a)
       : factor(CallbackAllocator<float>(a)), positions(CallbackAllocator<glm::vec3>(a)),
         moved(CallbackAllocator<uint8_t>(a)), flagged(CallbackAllocator<uint8_t>(a)),
-        changed(CallbackAllocator<uint8_t>(a)), tested(CallbackAllocator<uint8_t>(a)),
+        changed(CallbackAllocator<uint8_t>(a)), flagged_list(CallbackAllocator<uint32_t>(a)),
+        tested(CallbackAllocator<uint8_t>(a)),
         test_list(CallbackAllocator<uint32_t>(a)), boxes(CallbackAllocator<float>(a)),
         reach_boxes(CallbackAllocator<float>(a)), node_boxes(CallbackAllocator<float>(a)),
         node_flags(CallbackAllocator<uint8_t>(a)) {}
@@ -60,6 +61,7 @@ struct GuardWorkspace {
   Array<uint8_t> moved;          // per welded vertex: x differs from L
   Array<uint8_t> flagged;        // per welded vertex: a corner of an added pair this round
   Array<uint8_t> changed;        // per welded vertex: its λ changed this round
+  Array<uint32_t> flagged_list;  // the vertices flagged this round
   Array<uint8_t> tested;         // per triangle: in this round's list
   Array<uint32_t> test_list;     // the triangles this round tests
   Array<float> boxes;            // per triangle: its box at x (lo xyz, hi xyz)
