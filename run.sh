@@ -15,8 +15,13 @@
 #                            (with the web viewer's browser test in headless chromium)
 #   ./run.sh viewer FILE.glb...  serve the web viewer for skelform-animate files on 127.0.0.1
 #                            and print the URL to open (installs three.js from npm once)
+#   ./run.sh quality [ARGS]  skelform against LBS over the whole corpus (the Quaternius characters
+#                            and Khronos samples of the data dir, and the procedural character):
+#                            builds, runs skelform-quality --check and prints its table as
+#                            Markdown (the README's); ARGS go to skelform-quality (e.g. --contacts)
 #   ./run.sh screenshots     regenerate the README's pictures (docs/images/*.png) from the web
-#                            viewer in headless chromium (needs CesiumMan and Fox in the data dir)
+#                            viewer in headless chromium (needs CesiumMan, Fox and the
+#                            Quaternius Horse in the data dir)
 #
 # Environment: JOBS (parallel build jobs, default: all cores), SKELFORM_DATA_DIR (the
 # third-party models the tests read; default ../shared/data, tests skip when absent).
@@ -65,7 +70,7 @@ build() {
   local dir=$1; shift
   local configure=() target=()
   while [ $# -gt 0 ]; do
-    if [ "$1" = "--target" ]; then target=(--target "$2"); shift 2; else configure+=("$1"); shift; fi
+    if [ "$1" = "--target" ]; then target+=(--target "$2"); shift 2; else configure+=("$1"); shift; fi
   done
   echo "==> building in $dir"
   cmake -S "$root" -B "$dir" "${configure[@]}" >/dev/null
@@ -132,11 +137,28 @@ install_viewer() {
   fi
 }
 
+# The README's quality table: skelform-quality over the whole corpus, as Markdown.
+run_quality() {
+  local data=${SKELFORM_DATA_DIR:-$root/../shared/data}
+  [ -d "$data/quaternius" ] || { echo "run.sh quality: $data/quaternius not found (set SKELFORM_DATA_DIR)" >&2; exit 1; }
+  build "$root/build" -DCMAKE_BUILD_TYPE=Release --target skelform-quality --target skelform-character
+  mkdir -p "$root/out/procedural"
+  "$root/build/samples/skelform-character" -o "$root/out/procedural/character.glb" >/dev/null
+  local inputs=("$data/quaternius" "$root/out/procedural/character.glb") sample
+  for sample in CesiumMan/CesiumMan.glb Fox/Fox.glb RiggedFigure/RiggedFigure.glb RiggedSimple/RiggedSimple.glb \
+                SimpleSkin/SimpleSkin.gltf; do
+    [ -f "$data/$sample" ] && inputs+=("$data/$sample")
+  done
+  echo "==> skelform-quality over ${#inputs[@]} inputs, 9 frames per animation"
+  "$root/build/samples/skelform-quality" "${inputs[@]}" --frames 9 -q --markdown "$@"
+  "$root/build/samples/skelform-quality" "${inputs[@]}" --frames 9 -q --check "$@" | sed -n '/^acceptance/,$p'
+}
+
 # docs/images/*.png: the README's pictures, from the viewer on skelform-animate's files.
 run_screenshots() {
   install_viewer
   local data=${SKELFORM_DATA_DIR:-$root/../shared/data} model
-  for model in CesiumMan/CesiumMan.glb Fox/Fox.glb; do
+  for model in CesiumMan/CesiumMan.glb Fox/Fox.glb quaternius/animals_pack/Horse.glb; do
     [ -f "$data/$model" ] || { echo "run.sh screenshots: $data/$model not found (set SKELFORM_DATA_DIR)" >&2; exit 1; }
   done
   build "$root/build" -DCMAKE_BUILD_TYPE=Release --target skelform-animate
@@ -145,9 +167,10 @@ run_screenshots() {
   echo "==> skelform-animate CesiumMan, Fox"
   "$root/build/samples/skelform-animate" "$data/CesiumMan/CesiumMan.glb" -o "$work/CesiumMan.anim.glb"
   "$root/build/samples/skelform-animate" "$data/Fox/Fox.glb" -o "$work/Fox.anim.glb"
+  "$root/build/samples/skelform-animate" "$data/quaternius/animals_pack/Horse.glb" -o "$work/Horse.anim.glb"
   echo "==> screenshots (headless chromium)"
   node "$root/samples/viewer/headless/screenshots.js" "$root/docs/images" \
-       --cesium "$work/CesiumMan.anim.glb" --fox "$work/Fox.anim.glb"
+       --cesium "$work/CesiumMan.anim.glb" --fox "$work/Fox.anim.glb" --gallop "$work/Horse.anim.glb"
 }
 
 case "${1:-}" in
@@ -158,6 +181,7 @@ case "${1:-}" in
   test) install_viewer; run_tests ;;
   viewer) shift; install_viewer; exec "$root/samples/viewer/serve.sh" "$@" ;;
   screenshots) run_screenshots ;;
-  -h|--help) sed -n '2,22p' "$0" ;;
+  quality) shift; run_quality "$@" ;;
+  -h|--help) sed -n '2,27p' "$0" ;;
   *) run_main_job "${1:-}" ;;
 esac

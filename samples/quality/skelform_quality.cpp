@@ -62,6 +62,8 @@ const char* const kUsage =
     "  --frames N     measured frames per animation, evenly spaced, ends included (default 9)\n"
     "  --fps F        rate at which animations are played between them (default 30)\n"
     "  --json         one JSON document on stdout instead of the table\n"
+    "  --markdown     one Markdown table on stdout instead: a row per pack (the files' folder)\n"
+    "                 and the total\n"
     "  --check        exit 5 when an acceptance line breaks: a frame where skelform adds more\n"
     "                 pairs than LBS, skelform's summed pairs above 50 % of LBS's, a closed\n"
     "                 character whose mean |volume change| exceeds LBS's, a single-influence\n"
@@ -93,6 +95,7 @@ struct Arguments {
   size_t frames = 9;
   double fps = 30.0;
   bool json = false;
+  bool markdown = false;
   bool check = false;
   bool quiet = false;
   unsigned jobs = 0;
@@ -158,6 +161,7 @@ Arguments parse_arguments(int argc, char** argv) {
       args.waived.push_back(line);
     }
     else if (arg == "--json") args.json = true;
+    else if (arg == "--markdown") args.markdown = true;
     else if (arg == "--check") args.check = true;
     else if (arg == "-q" || arg == "--quiet") args.quiet = true;
     else if (arg.size() > 1 && arg[0] == '-') fail(kExitUsage, "unknown option " + arg);
@@ -586,6 +590,52 @@ void print_table(const std::vector<FileResult>& files) {
               all.lbs_added ? percent(double(all.skelform_added) / double(all.lbs_added)).c_str() : "-");
 }
 
+// The summary of a pack (the files of one folder), or of every file.
+struct PackSummary {
+  size_t files = 0, refused = 0, animations = 0;
+  Summary frames;           // every measured frame
+  Summary closed_frames;    // the frames of closed characters (volume)
+  double rest_error = 0, bind_error = 0;
+  void add(const FileResult& f) {
+    ++files;
+    if (!f.refused.empty()) {
+      ++refused;
+      return;
+    }
+    animations += f.animations.size();
+    const Summary s = summarize(f);
+    frames.add(s);
+    if (f.closed) closed_frames.add(s);
+    rest_error = std::max(rest_error, f.rest_error);
+    bind_error = std::max(bind_error, f.bind_error);
+  }
+};
+
+void print_markdown(const std::vector<FileResult>& files) {
+  std::map<std::string, PackSummary> packs;
+  PackSummary all;
+  for (const FileResult& f : files) {
+    packs[f.pack].add(f);
+    all.add(f);
+  }
+  std::printf("| pack | characters | animations | frames | pairs added, skelform / LBS | frames skelform adds more | "
+              "closed characters: mean \\|ΔV\\|, skelform / LBS | largest rigid deviation | largest rest / bind error |\n");
+  std::printf("| --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: |\n");
+  auto row = [&](const std::string& name, const PackSummary& p) {
+    const Summary& s = p.frames;
+    const std::string share = s.lbs_added ? " (" + percent(double(s.skelform_added) / double(s.lbs_added)) + ")" : "";
+    const std::string volume = p.closed_frames.frames
+                                   ? percent(p.closed_frames.skelform_volume_mean()) + " / " + percent(p.closed_frames.lbs_volume_mean())
+                                   : "(none closed)";
+    std::printf("| %s | %zu%s | %zu | %zu | %zu / %zu%s | %zu | %s | %s | %s / %s |\n", name.c_str(), p.files,
+                p.refused ? (" (" + std::to_string(p.refused) + " refused)").c_str() : "", p.animations, s.frames,
+                s.skelform_added, s.lbs_added, share.c_str(), s.worse, volume.c_str(), scientific(s.rigid).c_str(),
+                scientific(p.rest_error).c_str(), scientific(p.bind_error).c_str());
+  };
+  for (const auto& [pack, p] : packs) row(pack, p);
+  row("**total**", all);
+}
+
 nlohmann::json report_json(const std::vector<FileResult>& files, const std::vector<Broken>& broken) {
   nlohmann::json report;
   report["files"] = nlohmann::json::array();
@@ -657,6 +707,8 @@ int run(const Arguments& args) {
   const bool failed = std::any_of(broken.begin(), broken.end(), [&](const Broken& b) { return !waived(b); });
   if (args.json) {
     std::printf("%s\n", report_json(results, broken).dump(1).c_str());
+  } else if (args.markdown) {
+    print_markdown(results);
   } else {
     print_table(results);
     if (args.check) {
