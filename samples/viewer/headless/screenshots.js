@@ -2,10 +2,12 @@
 // The README's pictures, taken from the web viewer in headless Chromium (./run.sh screenshots
 // makes the animation files and calls this):
 //   node screenshots.js OUT_DIR --cesium CesiumMan.anim.glb --fox Fox.anim.glb [--closeup FILE.anim.glb]
+//                       [--gallop QUADRUPED.anim.glb]
 // writes OUT_DIR/cesiumman.png (mid-animation, skelform beside LBS), OUT_DIR/fox.png (the
-// walk, mid-animation) and OUT_DIR/bent-joint-curvature.png: a close-up, coloured by mean
+// walk, mid-animation), OUT_DIR/bent-joint-curvature.png: a close-up, coloured by mean
 // curvature, of the joint where skelform and LBS differ most over the whole file (default:
-// the --cesium file).
+// the --cesium file), and with --gallop OUT_DIR/gallop.png: the quadruped's 'Gallop'
+// animation half-way, from its side.
 'use strict';
 
 const fs = require('fs');
@@ -13,7 +15,7 @@ const path = require('path');
 const { openSession, settle } = require('./session.js');
 
 function parse(argv) {
-  const options = { out: null, cesium: null, fox: null, closeup: null };
+  const options = { out: null, cesium: null, fox: null, closeup: null, gallop: null };
   for (let i = 0; i < argv.length; ++i) {
     const flag = argv[i].replace(/^--/, '');
     if (argv[i].startsWith('--') && flag in options && i + 1 < argv.length) options[flag] = argv[++i];
@@ -37,6 +39,7 @@ async function main() {
   const options = parse(process.argv.slice(2));
   fs.mkdirSync(options.out, { recursive: true });
   const files = [options.cesium, options.fox, options.closeup];
+  if (options.gallop) files.push(options.gallop);
   const session = await openSession(files, { width: 1200, height: 560 });
   const { page } = session;
   try {
@@ -74,6 +77,19 @@ async function main() {
     console.log(`close-up: animation ${joint.animation}, frame ${joint.frame}, point ${joint.point.map((x) => x.toFixed(3)).join(' ')}, ` +
                 `skelform-LBS distance ${joint.distance.toFixed(4)}`);
     await shoot(page, path.join(options.out, 'bent-joint-curvature.png'));
+
+    if (options.gallop) {
+      // A quadruped mid-gallop, from its side.
+      await session.open(3);
+      await page.evaluate(() => {
+        const v = window.skelformViewer;
+        const gallop = v.animations.findIndex((a) => /(^|\|)gallop$/i.test(a.name));
+        v.setAnimation(gallop >= 0 ? gallop : 0);
+        v.setFrame(Math.floor(v.frameCount / 2));
+        v.setView({ ...v.home, azimuth: 90, elevation: 5, zoom: 2.0 });
+      });
+      await shoot(page, path.join(options.out, 'gallop.png'));
+    }
   } finally {
     await session.close();
   }
