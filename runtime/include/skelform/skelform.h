@@ -65,7 +65,7 @@ extern "C" {
 /* Version of this header. sf_version() returns the version of the linked library; a
  * program may compare the two to detect a header/library mismatch. */
 #define SF_VERSION_MAJOR 0
-#define SF_VERSION_MINOR 5
+#define SF_VERSION_MINOR 6
 #define SF_VERSION_PATCH 0
 /* One integer, comparable: major * 10000 + minor * 100 + patch. */
 #define SF_VERSION (SF_VERSION_MAJOR * 10000 + SF_VERSION_MINOR * 100 + SF_VERSION_PATCH)
@@ -220,15 +220,14 @@ SF_API sf_result sf_instance_set_handle_targets(sf_instance* instance, const flo
                                                 size_t stride_bytes);
 
 /* The contact pass (off by default; docs/runtime-api.md "Contact pass"). When on, every
- * SF_METHOD_SKELFORM evaluation ends with it: the output's remaining self-intersections are
- * found on the dense mesh (welded by rest position) and their vertices moved out of each
- * other, each move kept only where the number of intersecting triangle pairs around the vertex
- * does not grow, so the pass never adds a pair. It costs a broad phase over every dense triangle
- * per evaluation (bench/, one core: about +1.1 ms on a 4.6K-triangle character, +17 ms on
- * 75K), which is why it is opt-in. It is output only: the fairing's warm start never sees it.
- * Turning it on builds the welded mesh and allocates the pass's scratch (about 40 bytes per
- * dense vertex and 135 per triangle: 11.7 MB for 75K triangles); turning it off frees them. Normals and tangents are left as the displacement computed them.
- * `enabled` is 0 or 1. */
+ * SF_METHOD_SKELFORM evaluation runs it on skelform's own dense result, before the guards
+ * against LBS (sf_instance_evaluate): the remaining self-intersections are found on the dense
+ * mesh (welded by rest position) and the vertices skelform may move (skelform weight above 0)
+ * moved out of each other, each move kept only where the number of intersecting triangle pairs
+ * around the vertex does not grow. It costs a broad phase over every dense triangle per
+ * evaluation, which is why it is opt-in. It never feeds the fairing's warm start. Turning it
+ * on allocates the pass's scratch; turning it off frees it. Normals and tangents are left as
+ * the displacement computed them. `enabled` is 0 or 1. */
 SF_API sf_result sf_instance_set_contacts(sf_instance* instance, uint32_t enabled);
 
 /* ---------------------------------------------------------------------------------------- */
@@ -304,7 +303,13 @@ typedef struct sf_eval_options {
 } sf_eval_options;
 
 /* Evaluates the instance's current input (joint matrices or handle targets) into its
- * internal buffers. Incremental by default: the fairing warm-starts from the previous
+ * internal buffers. With joint matrices, SF_METHOD_SKELFORM's output is linear blend skinning
+ * plus a share of skelform's correction per vertex (docs/runtime-api.md "LBS where LBS is
+ * exact"): none on a vertex the skin gives to one joint alone (it is LBS's result, bit for
+ * bit) or where the baked skelform weight is 0, and never so much that the output has an
+ * intersecting triangle pair LBS does not have, or, on a closed mesh, a volume further from
+ * the bind volume than LBS's. Scaled joint matrices (Blender's armature scale of 100,
+ * Mixamo's 0.01) give the unscaled result scaled ("Scale"). Incremental by default: the fairing warm-starts from the previous
  * evaluation's correction (carried in each control vertex's local frame, so it follows the
  * character through translation and rotation) and runs `fairing_iterations` iterations. A
  * pose jump (the local shape of the reconstruction changed at more than 2 % of the control
