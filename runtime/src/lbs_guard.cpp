@@ -42,6 +42,7 @@ GuardWorkspace make_guard_workspace(const ContactMesh& mesh, const AllocatorRef&
   ws.flagged.resize(mesh.vertex_count);
   ws.changed.resize(mesh.vertex_count);
   ws.flagged_list.reserve(mesh.vertex_count);
+  ws.ramp.resize(mesh.vertex_count);
   ws.tested.resize(triangles);
   ws.test_list.reserve(triangles);
   ws.boxes.resize(6 * triangles);
@@ -166,6 +167,31 @@ void guard_intersections(const Deformable& d, const ContactMesh& mesh, const Den
   }
 }
 
+// Lowers every λ to at most half-way between 1 and its neighbours' smallest, kGuardRampRings
+// times: a ramp from each corrected vertex back to full skelform. False when nothing changed.
+bool ramp_factors(const ContactMesh& mesh, GuardWorkspace& ws) {
+  bool any = false;
+  for (uint32_t ring = 0; ring < kGuardRampRings; ++ring) {
+    std::copy(ws.factor.begin(), ws.factor.end(), ws.ramp.begin());
+    bool changed = false;
+    for (uint32_t v = 0; v < mesh.vertex_count; ++v) {
+      float lowest = 1.0f;
+      for (uint32_t k = mesh.incident_offsets[v]; k < mesh.incident_offsets[v + 1]; ++k) {
+        const uint32_t* c = mesh.triangles.data() + 3 * size_t(mesh.incident[k]);
+        lowest = std::min({lowest, ws.ramp[c[0]], ws.ramp[c[1]], ws.ramp[c[2]]});
+      }
+      const float limit = 0.5f * (1.0f + lowest);
+      if (ws.factor[v] > limit) {
+        ws.factor[v] = limit;
+        changed = true;
+      }
+    }
+    if (!changed) break;
+    any = true;
+  }
+  return any;
+}
+
 // The volume bounded by x(μ) = L + μ·c at the representatives, c the guarded correction, as
 // the cubic V(μ) = v[0] + v[1]μ + v[2]μ² + v[3]μ³ (each triangle's det(a + μα, b + μβ, c + μγ)
 // expanded), in double, about the centre of L's bounds (a closed mesh's volume does not depend
@@ -232,6 +258,10 @@ void guard_and_blend(const Deformable& d, const ContactMesh& mesh, float scale, 
   const bool welded = mesh.weld.size() == d.vertex_count && mesh.triangle_count >= 2;
   if (welded) {
     guard_intersections(d, mesh, skelform, lbs, ws);
+    // A smooth fallback: around every vertex the guard pulled towards LBS, the factor may rise
+    // by at most half of what is left per ring, over kGuardRampRings rings; the lowered factors
+    // are then checked again (a vertex between K and L is not safe by itself).
+    if (ramp_factors(mesh, ws)) guard_intersections(d, mesh, skelform, lbs, ws);
     // Volume: a closed mesh keeps its rest volume, scaled by the pose's reference scale cubed,
     // no worse than LBS does; μ scales the whole guarded correction where it would not.
     if (mesh.closed && std::isfinite(mesh.rest_volume) && mesh.rest_volume != 0.0) {

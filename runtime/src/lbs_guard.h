@@ -12,7 +12,9 @@
 // ends when no such pair is left, which it must: a pair whose corners are all at λ = 0 is
 // LBS's. So every frame's intersecting pairs are a subset of LBS's: skelform never adds a
 // self-intersection to what LBS gives, on any character, in any pose. Where skelform does not
-// add one (nearly everywhere), λ stays 1 and its result is kept whole.
+// add one (nearly everywhere), λ stays 1 and its result is kept whole. The fallback is made
+// smooth: around a corrected vertex λ rises back to 1 over kGuardRampRings rings (each at most
+// half-way from its neighbours' smallest to 1), and the lowered factors are checked again.
 //
 // The triangle test is geometry::triangles_intersect (double precision, the metric's own);
 // the broad phase is the welded mesh's triangle hierarchy (triangle_bvh.h), refitted once per
@@ -44,6 +46,7 @@ struct Deformable;
 struct DenseOutput;
 
 constexpr uint32_t kGuardHalvings = 4;  // rounds that halve λ before it drops to 0
+constexpr uint32_t kGuardRampRings = 2; // rings over which λ rises back from a corrected vertex
 constexpr uint32_t kVolumeAttempts = 3;  // volume shares tried before the last falls back to LBS
 
 // Scratch of one instance (make_guard_workspace), sized for its deformable's welded mesh.
@@ -52,6 +55,7 @@ struct GuardWorkspace {
       : factor(CallbackAllocator<float>(a)), positions(CallbackAllocator<glm::vec3>(a)),
         moved(CallbackAllocator<uint8_t>(a)), flagged(CallbackAllocator<uint8_t>(a)),
         changed(CallbackAllocator<uint8_t>(a)), flagged_list(CallbackAllocator<uint32_t>(a)),
+        ramp(CallbackAllocator<float>(a)),
         tested(CallbackAllocator<uint8_t>(a)),
         test_list(CallbackAllocator<uint32_t>(a)), boxes(CallbackAllocator<float>(a)),
         reach_boxes(CallbackAllocator<float>(a)), node_boxes(CallbackAllocator<float>(a)),
@@ -62,6 +66,7 @@ struct GuardWorkspace {
   Array<uint8_t> flagged;        // per welded vertex: a corner of an added pair this round
   Array<uint8_t> changed;        // per welded vertex: its λ changed this round
   Array<uint32_t> flagged_list;  // the vertices flagged this round
+  Array<float> ramp;             // λ before a ramp pass
   Array<uint8_t> tested;         // per triangle: in this round's list
   Array<uint32_t> test_list;     // the triangles this round tests
   Array<float> boxes;            // per triangle: its box at x (lo xyz, hi xyz)

@@ -253,3 +253,30 @@ TEST_CASE("scale: a joint scaled on its own scales the thickness of what it driv
     CHECK(blended > 20);
   }
 }
+
+TEST_CASE("scale: non-uniform scale and shear degrade gracefully: finite, rigid parts exact, no pair LBS lacks") {
+  // No single radius scale exists for them (instance.h JointTransforms: |det|^(1/3) stands in);
+  // what must hold is what the guards promise whatever the matrices.
+  const RuntimeModel& model = skelform::test::capsule_model();
+  const Welded w = weld(model);
+  glm::mat4 shear(1.0f);
+  shear[1][0] = 0.6f;  // x += 0.6 y
+  const std::vector<glm::mat4> children = {glm::scale(glm::mat4(1.0f), glm::vec3(1.6f, 1.0f, 0.5f)),
+                                           bend_twist(60, 30) * shear,
+                                           glm::scale(bend_twist(90, 0), glm::vec3(2.0f, 0.3f, 1.0f))};
+  for (size_t c = 0; c < children.size(); ++c) {
+    const std::vector<glm::mat4> pose = {glm::mat4(1.0f), children[c]};
+    Instance skelform(model.asset), lbs(model.asset);
+    const skelform::test::Evaluated s = skelform.evaluate(model.asset, pose, SF_METHOD_SKELFORM, SF_EVAL_FROM_REST);
+    const skelform::test::Evaluated l = lbs.evaluate(model.asset, pose, SF_METHOD_LBS);
+    INFO("child matrix " << c);
+    for (const glm::vec3& p : s.positions) CHECK((std::isfinite(p.x) && std::isfinite(p.y) && std::isfinite(p.z)));
+    for (const glm::vec3& n : s.normals) CHECK(std::fabs(glm::length(n) - 1.0f) < 1e-4f);
+    const auto sp = skelform::bake::self_intersecting_pairs(posed(w, s.positions));
+    const auto lp = skelform::bake::self_intersecting_pairs(posed(w, l.positions));
+    CHECK(pairs_outside(sp, lp) == 0);
+    const skelform::test::OriginalPrimitive& capsule = model.primitives[0];
+    for (size_t v = 0; v < capsule.positions.size(); ++v)
+      if (single_influence(capsule, v)) CHECK(s.positions[v] == l.positions[v]);
+  }
+}
