@@ -337,3 +337,26 @@ TEST_CASE("fair animation: one iteration per incremental evaluation by default; 
   CHECK(fresh > 1);
   CHECK(fresh <= 64);
 }
+
+// sf_instance_set_contacts acts: where skelform's own result has pairs the pass resolves
+// (CesiumMan's walk), an instance with the pass on writes other positions than one without.
+TEST_CASE("fair animation with the contact pass: CesiumMan - the pass changes the output") {
+  const skelform::test::RuntimeModel* cesium = skelform::test::sample_model("CesiumMan/CesiumMan.glb");
+  if (!cesium) return;
+  const skelform::samples::GltfAnimation gltf =
+      skelform::samples::GltfAnimation::load_file(skelform::test::data_file("CesiumMan/CesiumMan.glb").string());
+  Instance with(cesium->asset), without(cesium->asset);
+  REQUIRE(sf_instance_set_contacts(with.instance, 1) == SF_OK);
+  bool differed = false;
+  for (int k = 0; k < 60 && !differed; k += 5) {
+    const std::vector<float> joints = gltf.joint_matrices(0, 0, gltf.animations()[0].start + k / 30.0);
+    for (sf_instance* i : {with.instance, without.instance}) {
+      REQUIRE(sf_instance_set_joint_matrices(i, joints.data(), joints.size() / 16, 0) == SF_OK);
+      REQUIRE(sf_instance_evaluate(i, nullptr) == SF_OK);
+    }
+    const skelform::test::Evaluated a = skelform::test::write_all(with.instance, cesium->asset);
+    const skelform::test::Evaluated b = skelform::test::write_all(without.instance, cesium->asset);
+    differed = std::memcmp(a.positions.data(), b.positions.data(), a.positions.size() * sizeof(glm::vec3)) != 0;
+  }
+  CHECK(differed);
+}
