@@ -29,7 +29,7 @@ struct ContactMesh {
   explicit ContactMesh(const AllocatorRef& a)
       : weld(CallbackAllocator<uint32_t>(a)), representative(CallbackAllocator<uint32_t>(a)),
         triangles(CallbackAllocator<uint32_t>(a)), incident_offsets(CallbackAllocator<uint32_t>(a)),
-        incident(CallbackAllocator<uint32_t>(a)), hierarchy(a) {}
+        incident(CallbackAllocator<uint32_t>(a)), hierarchy(a), rest_pairs(CallbackAllocator<uint64_t>(a)) {}
   uint32_t vertex_count = 0;          // welded vertices
   uint32_t triangle_count = 0;        // welded triangles without a repeated corner
   Array<uint32_t> weld;               // per dense vertex: its welded vertex (same rest position, bit for bit)
@@ -45,6 +45,9 @@ struct ContactMesh {
   double rest_volume = 0.0;
   // The triangles' hierarchy over the rest pose (triangle_bvh.h), for the LBS guard.
   TriangleHierarchy hierarchy;
+  // The pairs that intersect as modelled (s << 32 | t, s < t, ascending): parts a modeller
+  // embedded in each other. The contact pass leaves them be.
+  Array<uint64_t> rest_pairs;
 };
 
 constexpr uint32_t kContactSweeps = 4;  // passes over the active vertices, at most
