@@ -11,6 +11,7 @@
 #include <doctest/doctest.h>
 #include <glm/geometric.hpp>
 
+#include <algorithm>
 #include <atomic>
 #include <cmath>
 #include <cstring>
@@ -76,12 +77,26 @@ struct Scene {
   }
 };
 
+// The scene's rest pose: the octahedron's tip (and its seam copy) lifted clear of the cube,
+// by 0.35 of the cube's size. Pairs that intersect at rest are the modeller's, which the pass
+// leaves alone (contact.h ContactMesh::rest_pairs).
+std::vector<glm::vec3> rest_of(const Scene& scene) {
+  std::vector<glm::vec3> rest = scene.positions;
+  float lo = rest[0].x, hi = rest[0].x;
+  for (const glm::vec3& p : rest) lo = std::min(lo, p.x), hi = std::max(hi, p.x);
+  const glm::vec3 tip = rest[0];
+  for (glm::vec3& p : rest)
+    if (p == tip) p.z += 0.35f * (hi - lo);
+  return rest;
+}
+
 struct Pass {
+  std::vector<glm::vec3> rest;
   ContactMesh mesh;
   ContactWorkspace workspace;
   explicit Pass(const Scene& scene)
-      : mesh(build_contact_mesh(scene.positions.data(), uint32_t(scene.positions.size()), scene.triangles.data(),
-                                scene.triangles.size() / 3, {})),
+      : rest(rest_of(scene)),
+        mesh(build_contact_mesh(rest.data(), uint32_t(rest.size()), scene.triangles.data(), scene.triangles.size() / 3, {})),
         workspace(make_contact_workspace(mesh, {})) {}
   ContactStats run(std::vector<glm::vec3>& x) { return resolve_contacts(mesh, 1.0f, x.data(), uint32_t(x.size()), workspace); }
 };
@@ -177,4 +192,18 @@ TEST_CASE("contact: sf_instance_set_contacts - arguments; the pass is output onl
   CHECK(std::memcmp(a.normals.data(), b.normals.data(), a.normals.size() * sizeof(glm::vec3)) == 0);
   sf_instance_destroy(with);
   sf_instance_destroy(without);
+}
+
+TEST_CASE("contact: pairs that intersect at rest are the modeller's and stay") {
+  // The tip 0.1 inside the cube both at rest and now: nothing to resolve.
+  const Scene scene(0.9f);
+  std::vector<glm::vec3> x = scene.positions;
+  ContactMesh mesh = build_contact_mesh(scene.positions.data(), uint32_t(scene.positions.size()), scene.triangles.data(),
+                                        scene.triangles.size() / 3, {});
+  REQUIRE(scene.pairs(x) > 0);
+  CHECK(mesh.rest_pairs.size() == scene.pairs(x));
+  ContactWorkspace workspace = make_contact_workspace(mesh, {});
+  const ContactStats stats = resolve_contacts(mesh, 1.0f, x.data(), uint32_t(x.size()), workspace);
+  CHECK(stats.moved == 0);
+  CHECK(std::memcmp(x.data(), scene.positions.data(), x.size() * sizeof(glm::vec3)) == 0);
 }

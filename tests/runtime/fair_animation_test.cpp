@@ -7,6 +7,7 @@
 #include "gltf_animation.h"
 #include "mesh_checks.h"
 #include "runtime/runtime_models.h"
+#include "runtime/welded_surface.h"
 #include "skelform/bake/metrics.h"
 #include "skelform/bake/self_intersection.h"
 
@@ -20,53 +21,6 @@ namespace {
 
 using skelform::bake::TriangleMesh;
 using skelform::bake::Vec3;
-
-// The dense mesh of deformable 0 with glTF seams welded: vertices at the same rest position
-// become one, so triangles across a seam count as adjacent, as they are.
-struct Surface {
-  std::vector<uint32_t> representative;  // per welded vertex: one original vertex
-  TriangleMesh rest;
-  bool closed = false;
-  double rest_volume = 0;
-};
-
-Surface make_surface(const skelform::test::RuntimeModel& model, const skelform::samples::GltfAnimation& gltf) {
-  sf_deformable_info info{};
-  REQUIRE(sf_asset_deformable_info(model.asset, 0, &info) == SF_OK);
-  Surface s;
-  std::map<std::tuple<float, float, float>, uint32_t> ids;
-  std::vector<uint32_t> welded;
-  for (const auto& prim : model.primitives)
-    for (const glm::vec3& p : prim.positions) {
-      auto it = ids.find(std::make_tuple(p.x, p.y, p.z));
-      if (it == ids.end()) {
-        it = ids.emplace(std::make_tuple(p.x, p.y, p.z), uint32_t(s.rest.positions.size())).first;
-        s.rest.positions.push_back(Vec3(p));
-        s.representative.push_back(uint32_t(welded.size()));
-      }
-      welded.push_back(it->second);
-    }
-  for (uint32_t p = 0; p < info.primitive_count; ++p) {
-    sf_primitive_info pinfo{};
-    REQUIRE(sf_asset_primitive_info(model.asset, 0, p, &pinfo) == SF_OK);
-    const std::vector<uint32_t> tris = gltf.primitive_triangles(size_t(info.mesh), size_t(pinfo.primitive));
-    for (size_t t = 0; t + 2 < tris.size(); t += 3) {
-      const skelform::bake::Triangle tri = {welded[pinfo.first_vertex + tris[t]], welded[pinfo.first_vertex + tris[t + 1]],
-                                            welded[pinfo.first_vertex + tris[t + 2]]};
-      if (tri[0] != tri[1] && tri[1] != tri[2] && tri[2] != tri[0]) s.rest.triangles.push_back(tri);
-    }
-  }
-  const skelform::test::MeshReport report = skelform::test::analyze_mesh(s.rest);
-  s.closed = report.manifold_problem.empty();
-  s.rest_volume = skelform::bake::enclosed_volume(s.rest);
-  return s;
-}
-
-TriangleMesh posed(const Surface& s, const std::vector<glm::vec3>& positions) {
-  TriangleMesh m = s.rest;
-  for (size_t v = 0; v < m.positions.size(); ++v) m.positions[v] = Vec3(positions[s.representative[v]]);
-  return m;
-}
 
 struct Instance {
   sf_instance* instance = nullptr;
@@ -87,7 +41,7 @@ void check_animations(const char* relative, Property property, bool contacts = f
   const skelform::samples::GltfAnimation gltf = skelform::samples::GltfAnimation::load_file(skelform::test::data_file(relative).string());
   sf_deformable_info info{};
   REQUIRE(sf_asset_deformable_info(model->asset, 0, &info) == SF_OK);
-  const Surface surface = make_surface(*model, gltf);
+  const skelform::test::WeldedSurface surface = skelform::test::welded_surface(*model, gltf);
   REQUIRE(!gltf.animations().empty());
 
   double model_skelform_volume = 0, model_lbs_volume = 0;
@@ -117,8 +71,8 @@ void check_animations(const char* relative, Property property, bool contacts = f
       uint32_t it = 0;
       sf_instance_fairing_stats(skelform.instance, &it, nullptr);
       iterations += it;
-      const TriangleMesh s = posed(surface, skelform::test::write_all(skelform.instance, model->asset).positions);
-      const TriangleMesh l = posed(surface, skelform::test::write_all(lbs.instance, model->asset).positions);
+      const TriangleMesh s = skelform::test::posed(surface, skelform::test::write_all(skelform.instance, model->asset).positions);
+      const TriangleMesh l = skelform::test::posed(surface, skelform::test::write_all(lbs.instance, model->asset).positions);
       // Counting intersecting pairs is the slow part; the volume check does without it.
       const bool count = property == Property::intersections;
       const size_t sp = count ? skelform::bake::count_self_intersections(s) : 0;
@@ -127,7 +81,7 @@ void check_animations(const char* relative, Property property, bool contacts = f
       lbs_pairs += lp;
       if (contacts && count) {
         const size_t pp = skelform::bake::count_self_intersections(
-            posed(surface, skelform::test::write_all(plain.instance, model->asset).positions));
+            skelform::test::posed(surface, skelform::test::write_all(plain.instance, model->asset).positions));
         plain_pairs += pp;
         if (sp > pp) ++added_frames;
       }

@@ -6,6 +6,7 @@
 // Mixamo's 0.01), and a joint scaled on its own scales the thickness of what it drives.
 #include "gltf_animation.h"
 #include "runtime/runtime_models.h"
+#include "runtime/welded_surface.h"
 #include "skelform/bake/metrics.h"
 #include "skelform/bake/self_intersection.h"
 
@@ -25,51 +26,6 @@ using skelform::bake::Vec3;
 using skelform::test::RuntimeModel;
 
 constexpr double kPi = 3.14159265358979323846;
-
-// Deformable 0's dense mesh welded by rest position (the metric's rule), to pose with any
-// method's output.
-struct Welded {
-  std::vector<uint32_t> first;  // per welded vertex: its first dense vertex
-  TriangleMesh rest;
-  double rest_volume = 0;
-};
-
-Welded weld(const RuntimeModel& model) {
-  const skelform::samples::GltfAnimation gltf = skelform::samples::GltfAnimation::load_memory(model.baked_glb, model.name);
-  sf_deformable_info info{};
-  REQUIRE(sf_asset_deformable_info(model.asset, 0, &info) == SF_OK);
-  Welded w;
-  std::map<std::tuple<float, float, float>, uint32_t> ids;
-  std::vector<uint32_t> welded;
-  for (const auto& prim : model.primitives)
-    for (const glm::vec3& p : prim.positions) {
-      auto it = ids.find({p.x, p.y, p.z});
-      if (it == ids.end()) {
-        it = ids.emplace(std::make_tuple(p.x, p.y, p.z), uint32_t(w.rest.positions.size())).first;
-        w.rest.positions.push_back(Vec3(p));
-        w.first.push_back(uint32_t(welded.size()));
-      }
-      welded.push_back(it->second);
-    }
-  for (uint32_t p = 0; p < info.primitive_count; ++p) {
-    sf_primitive_info pinfo{};
-    REQUIRE(sf_asset_primitive_info(model.asset, 0, p, &pinfo) == SF_OK);
-    const std::vector<uint32_t> tris = gltf.primitive_triangles(size_t(info.mesh), size_t(pinfo.primitive));
-    for (size_t t = 0; t + 2 < tris.size(); t += 3) {
-      const skelform::bake::Triangle tri = {welded[pinfo.first_vertex + tris[t]], welded[pinfo.first_vertex + tris[t + 1]],
-                                            welded[pinfo.first_vertex + tris[t + 2]]};
-      if (tri[0] != tri[1] && tri[1] != tri[2] && tri[2] != tri[0]) w.rest.triangles.push_back(tri);
-    }
-  }
-  w.rest_volume = skelform::bake::enclosed_volume(w.rest);
-  return w;
-}
-
-TriangleMesh posed(const Welded& w, const std::vector<glm::vec3>& positions) {
-  TriangleMesh m = w.rest;
-  for (size_t v = 0; v < m.positions.size(); ++v) m.positions[v] = Vec3(positions[w.first[v]]);
-  return m;
-}
 
 struct Instance {
   sf_instance* handle = nullptr;
@@ -120,14 +76,14 @@ TEST_CASE("guard: every intersecting pair of the output is one LBS has; a closed
   // The two capsules bent and twisted from 0 to 150 degrees (their child joint is at the
   // origin), evaluated from rest and incrementally through the bend.
   for (const RuntimeModel* model : {&skelform::test::capsule_model(), &skelform::test::bent_capsule_model()}) {
-    const Welded w = weld(*model);
+    const skelform::test::WeldedSurface w = skelform::test::welded_surface(*model);
     Instance skelform(model->asset), lbs(model->asset);
     size_t frames = 0, skelform_pairs = 0, lbs_pairs = 0;
     for (int bend = 0; bend <= 150; bend += 10) {
       for (double twist : {0.0, 90.0}) {
         const std::vector<glm::mat4> pose = {glm::mat4(1.0f), bend_twist(bend, twist)};
-        const TriangleMesh s = posed(w, skelform.evaluate(model->asset, pose, SF_METHOD_SKELFORM).positions);
-        const TriangleMesh l = posed(w, lbs.evaluate(model->asset, pose, SF_METHOD_LBS).positions);
+        const TriangleMesh s = skelform::test::posed(w, skelform.evaluate(model->asset, pose, SF_METHOD_SKELFORM).positions);
+        const TriangleMesh l = skelform::test::posed(w, lbs.evaluate(model->asset, pose, SF_METHOD_LBS).positions);
         const auto sp = skelform::bake::self_intersecting_pairs(s);
         const auto lp = skelform::bake::self_intersecting_pairs(l);
         INFO(model->name << " bent " << bend << ", twisted " << twist << ": skelform " << sp.size() << " pairs, LBS "
@@ -150,7 +106,7 @@ TEST_CASE("guard: on a real animation every frame's pairs are LBS's") {
   if (!model) return;
   const skelform::samples::GltfAnimation gltf =
       skelform::samples::GltfAnimation::load_file(skelform::test::data_file("Fox/Fox.glb").string());
-  const Welded w = weld(*model);
+  const skelform::test::WeldedSurface w = skelform::test::welded_surface(*model);
   sf_deformable_info info{};
   REQUIRE(sf_asset_deformable_info(model->asset, 0, &info) == SF_OK);
   for (size_t a = 0; a < gltf.animations().size(); ++a) {
@@ -163,8 +119,8 @@ TEST_CASE("guard: on a real animation every frame's pairs are LBS's") {
       for (size_t j = 0; j < pose.size(); ++j)
         for (int c = 0; c < 16; ++c) pose[j][c / 4][c % 4] = m[16 * j + size_t(c)];
       const auto sp = skelform::bake::self_intersecting_pairs(
-          posed(w, skelform.evaluate(model->asset, pose, SF_METHOD_SKELFORM, frames == 0 ? SF_EVAL_FROM_REST : 0).positions));
-      const auto lp = skelform::bake::self_intersecting_pairs(posed(w, lbs.evaluate(model->asset, pose, SF_METHOD_LBS).positions));
+          skelform::test::posed(w, skelform.evaluate(model->asset, pose, SF_METHOD_SKELFORM, frames == 0 ? SF_EVAL_FROM_REST : 0).positions));
+      const auto lp = skelform::bake::self_intersecting_pairs(skelform::test::posed(w, lbs.evaluate(model->asset, pose, SF_METHOD_LBS).positions));
       outside += pairs_outside(sp, lp);
     }
     INFO("Fox '" << anim.name << "', " << frames << " frames");
@@ -258,7 +214,7 @@ TEST_CASE("scale: non-uniform scale and shear degrade gracefully: finite, rigid 
   // No single radius scale exists for them (instance.h JointTransforms: |det|^(1/3) stands in);
   // what must hold is what the guards promise whatever the matrices.
   const RuntimeModel& model = skelform::test::capsule_model();
-  const Welded w = weld(model);
+  const skelform::test::WeldedSurface w = skelform::test::welded_surface(model);
   glm::mat4 shear(1.0f);
   shear[1][0] = 0.6f;  // x += 0.6 y
   const std::vector<glm::mat4> children = {glm::scale(glm::mat4(1.0f), glm::vec3(1.6f, 1.0f, 0.5f)),
@@ -272,8 +228,8 @@ TEST_CASE("scale: non-uniform scale and shear degrade gracefully: finite, rigid 
     INFO("child matrix " << c);
     for (const glm::vec3& p : s.positions) CHECK((std::isfinite(p.x) && std::isfinite(p.y) && std::isfinite(p.z)));
     for (const glm::vec3& n : s.normals) CHECK(std::fabs(glm::length(n) - 1.0f) < 1e-4f);
-    const auto sp = skelform::bake::self_intersecting_pairs(posed(w, s.positions));
-    const auto lp = skelform::bake::self_intersecting_pairs(posed(w, l.positions));
+    const auto sp = skelform::bake::self_intersecting_pairs(skelform::test::posed(w, s.positions));
+    const auto lp = skelform::bake::self_intersecting_pairs(skelform::test::posed(w, l.positions));
     CHECK(pairs_outside(sp, lp) == 0);
     const skelform::test::OriginalPrimitive& capsule = model.primitives[0];
     for (size_t v = 0; v < capsule.positions.size(); ++v)

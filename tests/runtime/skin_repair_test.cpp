@@ -4,6 +4,7 @@
 // runtime loads the baked file and skins the repaired vertices like their neighbours.
 #include "capsule_glb.h"
 #include "glb_edit.h"
+#include "runtime/runtime_models.h"
 #include "skelform/bake/bake.h"
 #include "skelform/bake/gltf_writer.h"
 #include "skelform/bake/input.h"
@@ -102,14 +103,8 @@ TEST_CASE("skin repair: a file with NaN weights bakes with warnings naming them 
     sf_eval_options options{};
     options.method = method;
     REQUIRE(sf_instance_evaluate(instance, &options) == SF_OK);
-    sf_primitive_info info{};
-    REQUIRE(sf_asset_primitive_info(asset, 0, 0, &info) == SF_OK);
-    std::vector<float> positions(3 * size_t{info.vertex_count});
-    sf_vertex_output out{};
-    out.positions = positions.data();
-    out.vertex_capacity = info.vertex_count;
-    REQUIRE(sf_instance_write(instance, 0, &out) == SF_OK);
-    for (float x : positions) CHECK(std::isfinite(x));
+    for (const glm::vec3& p : skelform::test::write_all(instance, asset).positions)
+      CHECK((std::isfinite(p.x) && std::isfinite(p.y) && std::isfinite(p.z)));
   }
   sf_instance_destroy(instance);
   sf_asset_destroy(asset);
