@@ -56,6 +56,8 @@ using skelform::samples::kExitIo;
 using skelform::samples::kExitOk;
 using skelform::samples::kExitUsage;
 using skelform::samples::lowercase_extension;
+using skelform::samples::parse_integer;
+using skelform::samples::parse_positive;
 using Clock = std::chrono::steady_clock;
 
 const char* const kUsage =
@@ -103,21 +105,9 @@ Arguments parse_arguments(int argc, char** argv) {
       return argv[++i];
     };
     if (arg == "-o" || arg == "--output") args.output = value();
-    else if (arg == "--fps") {
-      const std::string text = value();
-      char* end = nullptr;
-      args.fps = std::strtod(text.c_str(), &end);
-      if (text.empty() || *end != '\0' || !(args.fps > 0.0) || args.fps > 1000.0)
-        fail(kExitUsage, "--fps expects a number in (0, 1000], got '" + text + "'");
-    } else if (arg == "--max-frames") {
-      const std::string text = value();
-      char* end = nullptr;
-      errno = 0;
-      const unsigned long frames = std::strtoul(text.c_str(), &end, 10);
-      if (text.empty() || text[0] == '-' || *end != '\0' || errno == ERANGE || frames < 1 || frames > 100000)
-        fail(kExitUsage, "--max-frames expects an integer in [1, 100000], got '" + text + "'");
-      args.max_frames = frames;
-    } else if (arg == "-q" || arg == "--quiet") args.quiet = true;
+    else if (arg == "--fps") args.fps = parse_positive(arg, value(), 1000.0);
+    else if (arg == "--max-frames") args.max_frames = parse_integer(arg, value(), 1, 100000);
+    else if (arg == "-q" || arg == "--quiet") args.quiet = true;
     else if (arg == "--contacts") args.contacts = true;
     else if (arg.size() > 1 && arg[0] == '-') fail(kExitUsage, "unknown option " + arg);
     else positional.push_back(arg);

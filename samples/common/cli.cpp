@@ -3,6 +3,8 @@
 #include "gltf_animation.h"
 
 #include <cctype>
+#include <cerrno>
+#include <cstdlib>
 #include <cstdio>
 #include <filesystem>
 #include <new>
@@ -20,6 +22,27 @@ int exit_code_of(sf_result result) {
     case SF_ERROR_UNSUPPORTED: return kExitInvalidInput;
     default: return kExitInternal;
   }
+}
+
+unsigned long parse_integer(const std::string& option, const std::string& text, unsigned long lo, unsigned long hi) {
+  char* end = nullptr;
+  errno = 0;
+  const unsigned long value = std::strtoul(text.c_str(), &end, 10);
+  if (text.empty() || text[0] == '-' || *end != '\0' || errno == ERANGE || value < lo || value > hi)
+    fail(kExitUsage, option + " expects an integer in [" + std::to_string(lo) + ", " + std::to_string(hi) + "], got '" +
+                         text + "'");
+  return value;
+}
+
+double parse_positive(const std::string& option, const std::string& text, double hi) {
+  char* end = nullptr;
+  const double value = std::strtod(text.c_str(), &end);
+  if (text.empty() || *end != '\0' || !(value > 0.0) || value > hi) {
+    char range[64];
+    std::snprintf(range, sizeof range, "(0, %g]", hi);
+    fail(kExitUsage, option + " expects a number in " + range + ", got '" + text + "'");
+  }
+  return value;
 }
 
 std::string lowercase_extension(const std::string& path) {

@@ -24,6 +24,11 @@ struct Failure {
 // unsupported), else internal.
 int exit_code_of(sf_result result);
 
+// The value of a command-line option: an integer in [lo, hi], or a number in (0, hi] (fps).
+// Anything else fails with kExitUsage and a message naming the option and the range.
+unsigned long parse_integer(const std::string& option, const std::string& text, unsigned long lo, unsigned long hi);
+double parse_positive(const std::string& option, const std::string& text, double hi);
+
 // The file extension of `path`, lowercase, with its dot ("" when none).
 std::string lowercase_extension(const std::string& path);
 

@@ -107,16 +107,6 @@ struct Arguments {
 // The acceptance lines, by the names --waive takes.
 const char* const kLines[] = {"worse-frames", "pair-share", "volume", "rigid", "rest", "bind", "refused"};
 
-unsigned long parse_count(const std::string& option, const std::string& text, unsigned long lo, unsigned long hi) {
-  char* end = nullptr;
-  errno = 0;
-  const unsigned long value = std::strtoul(text.c_str(), &end, 10);
-  if (text.empty() || text[0] == '-' || *end != '\0' || errno == ERANGE || value < lo || value > hi)
-    fail(kExitUsage, option + " expects an integer in [" + std::to_string(lo) + ", " + std::to_string(hi) + "], got '" +
-                         text + "'");
-  return value;
-}
-
 Arguments parse_arguments(int argc, char** argv) {
   Arguments args;
   for (int i = 1; i < argc; ++i) {
@@ -125,14 +115,9 @@ Arguments parse_arguments(int argc, char** argv) {
       if (i + 1 >= argc) fail(kExitUsage, arg + " needs a value");
       return argv[++i];
     };
-    if (arg == "--frames") args.frames = parse_count(arg, value(), 2, 10000);
-    else if (arg == "--fps") {
-      const std::string text = value();
-      char* end = nullptr;
-      args.fps = std::strtod(text.c_str(), &end);
-      if (text.empty() || *end != '\0' || !(args.fps > 0.0) || args.fps > 1000.0)
-        fail(kExitUsage, "--fps expects a number in (0, 1000], got '" + text + "'");
-    } else if (arg == "-j") args.jobs = unsigned(parse_count(arg, value(), 1, 256));
+    if (arg == "--frames") args.frames = parse_integer(arg, value(), 2, 10000);
+    else if (arg == "--fps") args.fps = parse_positive(arg, value(), 1000.0);
+    else if (arg == "-j") args.jobs = unsigned(parse_integer(arg, value(), 1, 256));
     else if (arg == "--skeleton") {
       const std::string v = value();
       if (v == "arcs") args.options.skeleton_skinning = SF_SKELETON_ARCS;
@@ -152,7 +137,7 @@ Arguments parse_arguments(int argc, char** argv) {
       else if (v == "intersections") args.options.fairing_flags = SF_FAIR_NO_FOLD_FLOW;
       else fail(kExitUsage, "--fairing expects on, off, folds or intersections, got '" + v + "'");
     } else if (arg == "--fairing-iterations") {
-      args.options.fairing_iterations = uint32_t(parse_count(arg, value(), 1, 1000));
+      args.options.fairing_iterations = uint32_t(parse_integer(arg, value(), 1, 1000));
     } else if (arg == "--contacts") args.contacts = true;
     else if (arg == "--waive") {
       const std::string line = value();
