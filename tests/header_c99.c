@@ -11,6 +11,9 @@ int main(void) {
   }
   if (strcmp(sf_result_string(SF_OK), "SF_OK") != 0) return 1;
   if (strcmp(sf_result_string((sf_result)12345), "SF_ERROR_UNKNOWN") != 0) return 1;
+  /* Any value of the enum's type from C, a negative one too (the library must not load it as
+   * a C++ enum: undefined behaviour, caught by UBSan). */
+  if (strcmp(sf_result_string((sf_result)-1), "SF_ERROR_UNKNOWN") != 0) return 1;
   {
     /* Loading from C: zeroed options are the defaults, and bad input is an error code with a
      * message, never a crash. */

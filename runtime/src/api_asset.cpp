@@ -2,6 +2,7 @@
 // loader's exceptions become sf_result codes and messages (nothing crosses the C boundary).
 #include "asset.h"
 #include "asset_load.h"
+#include "file_read.h"
 #include "gltf_read.h"
 #include "memory.h"
 
@@ -9,12 +10,9 @@
 
 #include <algorithm>
 #include <cstring>
-#include <filesystem>
-#include <fstream>
 #include <new>
 #include <stdexcept>
 #include <string>
-#include <system_error>
 #include <vector>
 
 using skelform::runtime::AllocatorRef;
@@ -108,15 +106,8 @@ sf_result sf_asset_load_file(const char* path, const sf_load_options* options, s
   if (!allocator_of(options, allocator, problem)) return fail(options, SF_ERROR_INVALID_ARGUMENT, problem);
   return guarded_load(options, [&] {
     const std::string name = path;
-    std::error_code error;
-    if (std::filesystem::is_directory(name, error))
-      throw skelform::runtime::LoadError(SF_ERROR_IO, name + ": is a directory");
-    std::ifstream in(name, std::ios::binary);
-    if (!in) throw skelform::runtime::LoadError(SF_ERROR_IO, name + ": cannot open the file");
     // The file's bytes are a load-time temporary (default heap), like tinygltf's document.
-    std::vector<unsigned char> bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-    if (in.bad()) throw skelform::runtime::LoadError(SF_ERROR_IO, name + ": read error");
-    if (bytes.empty()) throw skelform::runtime::LoadError(SF_ERROR_INVALID_DATA, name + ": empty file");
+    const std::vector<unsigned char> bytes = skelform::runtime::read_asset_file(name);
     *out_asset = skelform::runtime::load_asset(bytes.data(), bytes.size(), name,
                                                skelform::gltf::ExternalFiles::read_io_errors, allocator);
   });

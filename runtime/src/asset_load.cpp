@@ -22,9 +22,11 @@
 #include <array>
 #include <cmath>
 #include <cstdint>
+#include <cstdio>
 #include <limits>
 #include <memory>
 #include <string>
+#include <utility>
 #include <vector>
 
 static_assert(skelform::format::kMajorVersion == SF_EXTENSION_MAJOR_VERSION,
@@ -39,8 +41,34 @@ namespace format = skelform::format;
 // already far beyond any dense mesh; a larger value is corruption.
 constexpr int kMaxSubdivisionLevel = 8;
 
+// Sets of four joint influences per vertex (control.joints, JOINTS_n), per deformable
+// (skelform.h "Limits"): 64 influences per vertex. Every set costs memory and skinning time
+// per vertex; without a bound, one accessor named thousands of times in a few kilobytes of
+// JSON made a load take gigabytes.
+constexpr size_t kMaxInfluenceSets = 16;
+
+// The largest magnitude of a length the asset stores (positions, medial radii, displacements,
+// residuals; skelform.h "Limits"). Far beyond any mesh float positions can describe, and
+// small enough that the evaluation's squares and cubes of lengths stay finite (1e36).
+constexpr double kMaxLength = 1e12;
+// Slack of the unit-vector and barycentric checks: float rounding of what the baker wrote.
+constexpr double kUnitSlack = 1e-3;
+constexpr double kBarycentricSlack = 1e-5;
+
 [[noreturn]] void invalid(const std::string& what, const std::string& problem) {
   throw LoadError(SF_ERROR_INVALID_DATA, what + ": " + problem);
+}
+
+std::string number_text(double value) {
+  char text[32];
+  std::snprintf(text, sizeof text, "%g", value);
+  return text;
+}
+
+[[noreturn]] void beyond_influence_limit(const std::string& what, size_t sets) {
+  throw LoadError(SF_ERROR_UNSUPPORTED, what + ": " + std::to_string(sets) + " influence sets; this runtime reads at most " +
+                                            std::to_string(kMaxInfluenceSets) + " per deformable (" +
+                                            std::to_string(4 * kMaxInfluenceSets) + " joints per vertex)");
 }
 
 // --- JSON members of the extension (tinygltf::Value) ---
@@ -190,6 +218,45 @@ void copy_vec2(const std::vector<double>& values, Array<glm::vec2>& out) {
     out[i] = glm::vec2(static_cast<float>(values[2 * i]), static_cast<float>(values[2 * i + 1]));
 }
 
+// Every value of `array` is a length within ±kMaxLength.
+void check_lengths(const ReadArray& array) {
+  for (size_t i = 0; i < array.values.size(); ++i)
+    if (!(std::fabs(array.values[i]) <= kMaxLength))
+      invalid(array.what, "value " + number_text(array.values[i]) + " at position " + std::to_string(i) +
+                              " is beyond the length limit " + number_text(kMaxLength));
+}
+
+// The ranges of the extension's float arrays (skelform.h "Limits"; the spec's "Limits"): the
+// lengths, unit normals, Loop stencil weights (in [0, 1] as the baker writes them; the reader
+// allows [-1, 1]) and barycentrics inside their triangle. Beyond them the evaluation would
+// overflow, or compute garbage from what cannot be a bake.
+void check_value_limits(const std::vector<ReadArray>& arrays) {
+  const std::pair<const char*, const char*> lengths[] = {{"control", "positions"},
+                                                         {"control", "skeletalPositions"},
+                                                         {"control", "medialRadius"},
+                                                         {"binding", "displacement"},
+                                                         {"binding", "residual"}};
+  for (const auto& [group, name] : lengths) check_lengths(find_array(arrays, group, name));
+  const ReadArray& normals = find_array(arrays, "control", "normals");
+  for (size_t v = 0; 3 * v + 2 < normals.values.size(); ++v) {
+    const double* n = &normals.values[3 * v];
+    if (!(std::sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]) <= 1.0 + kUnitSlack))
+      invalid(normals.what, "control vertex " + std::to_string(v) + " has a normal longer than 1");
+  }
+  const ReadArray& weights = find_array(arrays, "subdivision", "stencilWeights");
+  for (size_t i = 0; i < weights.values.size(); ++i)
+    if (!(std::fabs(weights.values[i]) <= 1.0))
+      invalid(weights.what, "weight " + number_text(weights.values[i]) + " of entry " + std::to_string(i) +
+                                " is outside [-1, 1]");
+  const ReadArray& barycentric = find_array(arrays, "binding", "barycentric");
+  for (size_t v = 0; 2 * v + 1 < barycentric.values.size(); ++v) {
+    const double b1 = barycentric.values[2 * v], b2 = barycentric.values[2 * v + 1];
+    if (!(b1 >= 0.0 && b2 >= 0.0 && b1 + b2 <= 1.0 + kBarycentricSlack))
+      invalid(barycentric.what, "vertex " + std::to_string(v) + " has (" + number_text(b1) + ", " + number_text(b2) +
+                                    "), not a point of its triangle (b1, b2 >= 0, b1 + b2 <= 1)");
+  }
+}
+
 // --- Skin influences (dense and control alike) ---
 
 // Sets of four (joint, weight) per vertex, gathered before the final `influences` width is
@@ -299,6 +366,11 @@ void read_primitives(const tinygltf::Model& model, const tinygltf::Value& json, 
     const int position_accessor = attribute("POSITION");
     if (position_accessor < 0) invalid(what, "has no POSITION attribute");
     const std::vector<glm::dvec3> positions = gltf::read_vec3(model, position_accessor, what + " POSITION");
+    for (size_t v = 0; v < positions.size(); ++v)
+      for (int k = 0; k < 3; ++k)
+        if (!(std::fabs(positions[v][k]) <= kMaxLength))
+          invalid(what + " POSITION", "vertex " + std::to_string(v) + " has " + number_text(positions[v][k]) +
+                                          ", beyond the length limit " + number_text(kMaxLength));
     const size_t vertex_count = positions.size();
     if (vertex_total + vertex_count > std::numeric_limits<uint32_t>::max())
       throw LoadError(SF_ERROR_UNSUPPORTED, what + ": more than 2^32-1 vertices in the deformable");
@@ -360,6 +432,7 @@ void read_primitives(const tinygltf::Model& model, const tinygltf::Value& json, 
           break;
         }
         if (joints < 0 || weights < 0) invalid(what, "has only one of JOINTS_" + n + " and WEIGHTS_" + n);
+        if (set >= kMaxInfluenceSets) beyond_influence_limit(what + " JOINTS_n", set + 1);
         const std::vector<glm::uvec4> joint_values = gltf::read_joints(model, joints, what + " JOINTS_" + n);
         const std::vector<glm::dvec4> weight_values = gltf::read_weights(model, weights, what + " WEIGHTS_" + n);
         if (joint_values.size() != vertex_count || weight_values.size() != vertex_count)
@@ -492,6 +565,7 @@ void load_deformable(const tinygltf::Model& model, const tinygltf::Value& json, 
   const ReadArray& radius = find_array(arrays, "control", "medialRadius");
   for (size_t i = 0; i < radius.values.size(); ++i)
     if (radius.values[i] < 0) invalid(radius.what, "control vertex " + std::to_string(i) + " has a negative radius");
+  check_value_limits(arrays);
   if (counts.control_vertices > std::numeric_limits<uint32_t>::max() ||
       counts.refined_vertices > std::numeric_limits<uint32_t>::max())
     throw LoadError(SF_ERROR_UNSUPPORTED, prefix + ": more than 2^32-1 control or refined vertices");
@@ -525,6 +599,7 @@ void load_deformable(const tinygltf::Model& model, const tinygltf::Value& json, 
     if (!joints || !weights || !joints->IsArray() || !weights->IsArray() || joints->ArrayLen() == 0 ||
         joints->ArrayLen() != weights->ArrayLen())
       invalid(where, "a skinned deformable needs 'joints' and 'weights' arrays of equal, non-zero length");
+    if (joints->ArrayLen() > kMaxInfluenceSets) beyond_influence_limit(where + " joints", joints->ArrayLen());
     for (size_t set = 0; set < joints->ArrayLen(); ++set) {
       const std::string index = "[" + std::to_string(set) + "]";
       const int joint_accessor =

@@ -315,9 +315,12 @@ class Grid {
   glm::vec3 stored_lo(uint32_t t) const { return glm::vec3(ws_.boxes[6 * size_t(t)], ws_.boxes[6 * size_t(t) + 1], ws_.boxes[6 * size_t(t) + 2]); }
   glm::vec3 stored_hi(uint32_t t) const { return glm::vec3(ws_.boxes[6 * size_t(t) + 3], ws_.boxes[6 * size_t(t) + 4], ws_.boxes[6 * size_t(t) + 5]); }
   int coordinate(float value, int k) const {
+    // Clamped while still a float (fair.cpp cell_coordinate): a cell that underflowed makes c
+    // inf, and inf converted to int is undefined behaviour.
     const float c = (value - origin_[k]) * inverse_cell_;
     if (!(c >= 0.0f)) return 0;
-    return std::min(int(c), dims_[k] - 1);
+    if (!(c < float(dims_[k]))) return dims_[k] - 1;
+    return int(c);
   }
   CellRange cell_range(const glm::vec3& lo, const glm::vec3& hi) const {
     CellRange r;

@@ -280,10 +280,15 @@ struct Grid {
   float max_radius = 0.0f;   // largest d
 };
 
+// The cell of coordinate x along one axis, in [0, size). Clamped while still a float: the
+// product is inf when the cell underflows (a mesh collapsed to a point, 1/cell = inf) and
+// beyond int's range for a point far outside the box, and converting either to int is
+// undefined behaviour (in practice INT_MIN: an index before the grid).
 int cell_coordinate(float x, float origin, float inverse_cell, int size) {
   const float c = (x - origin) * inverse_cell;
   if (!(c >= 0.0f)) return 0;  // also NaN
-  return std::min(static_cast<int>(c), size - 1);
+  if (!(c < static_cast<float>(size))) return size - 1;
+  return static_cast<int>(c);
 }
 
 // Buckets the skeletal vertices into the grid over the bounding box of skeleton and mesh.
@@ -309,7 +314,10 @@ Grid build_grid(const FairingTopology& topo, const glm::vec3* skeletal, const fl
   grid.cell = glm::vec3(cell);
   grid.inverse_cell = glm::vec3(1.0f / cell);
   grid.max_radius = max_radius;
-  const int ring = std::min(size, std::max(1, static_cast<int>(std::ceil(max_radius / cell))));
+  // Clamped while still a float, as in cell_coordinate: a radius of 3e38 over a small cell is
+  // far beyond int's range (NaN, from a cell that underflowed to 0, searches everything too).
+  const float rings = std::ceil(max_radius / cell);
+  const int ring = rings < static_cast<float>(size) ? std::max(1, static_cast<int>(rings)) : size;
   grid.ring[0] = grid.ring[1] = grid.ring[2] = ring;
 
   const size_t cell_count = size_t(size) * size * size;

@@ -8,7 +8,10 @@
 #include <array>
 #include <cmath>
 #include <cstring>
+#include <exception>
+#include <filesystem>
 #include <limits>
+#include <new>
 #include <string>
 
 namespace skelform::gltf {
@@ -65,6 +68,18 @@ size_t check_glb_container(const unsigned char* bytes, size_t size, const std::s
     offset += 8 + chunk_length;
   }
   return static_cast<size_t>(length);
+}
+
+// check_before_parsing; returns the number of bytes tinygltf is to parse (a GLB's declared
+// length, which may be less than `size`).
+size_t checked_length(const unsigned char* bytes, size_t size, bool binary, const std::string& name) {
+  if (!binary) {
+    check_json_nesting(bytes, size, name);
+    return size;
+  }
+  const size_t length = check_glb_container(bytes, size, name);
+  check_json_nesting(bytes + 20, read_u32_le(bytes + 12), name);
+  return length;
 }
 
 std::string directory_of(const std::string& path) {
@@ -322,9 +337,19 @@ bool file_exists(const std::string& path, void* user) {
   return false;
 }
 
+// tinygltf sizes its read by seeking to the end: only a regular file has an end to seek to,
+// and one larger than a .glb can be (2^32 - 1 bytes) is no buffer this reader could use.
+bool readable_external_file(const std::string& path) {
+  std::error_code error;
+  return std::filesystem::is_regular_file(path, error) &&
+         std::filesystem::file_size(path, error) <= std::numeric_limits<uint32_t>::max() && !error;
+}
+
 bool read_whole_file(std::vector<unsigned char>* out, std::string* error, const std::string& path, void* user) {
   auto* access = static_cast<FileAccess*>(user);
-  if (access->policy != ExternalFiles::refuse && tinygltf::ReadWholeFile(out, error, path, nullptr)) return true;
+  if (access->policy != ExternalFiles::refuse && readable_external_file(path) &&
+      tinygltf::ReadWholeFile(out, error, path, nullptr))
+    return true;
   if (access->first_failure.empty()) access->first_failure = path;
   if (error && access->policy == ExternalFiles::refuse) *error += "external file refused: " + path + "\n";
   return false;
@@ -338,6 +363,30 @@ bool never_write(std::string* error, const std::string&, const std::vector<unsig
 }  // namespace
 
 bool is_glb(const unsigned char* bytes, size_t size) { return size >= 4 && std::memcmp(bytes, "glTF", 4) == 0; }
+
+void check_json_nesting(const unsigned char* json, size_t size, const std::string& name) {
+  size_t depth = 0;
+  bool in_string = false;
+  for (size_t i = 0; i < size; ++i) {
+    const unsigned char c = json[i];
+    if (in_string) {
+      if (c == '\\') ++i;
+      else if (c == '"') in_string = false;
+    } else if (c == '"') {
+      in_string = true;
+    } else if (c == '[' || c == '{') {
+      if (++depth > kMaxJsonNesting)
+        invalid(name, "JSON nested deeper than " + std::to_string(kMaxJsonNesting) + " arrays and objects (at byte " +
+                          std::to_string(i) + "); glTF needs 6");
+    } else if ((c == ']' || c == '}') && depth > 0) {
+      --depth;
+    }
+  }
+}
+
+void check_before_parsing(const unsigned char* bytes, size_t size, bool binary, const std::string& name) {
+  checked_length(bytes, size, binary, name);
+}
 
 void parse_model(const unsigned char* bytes, size_t size, bool binary, const std::string& name,
                  tinygltf::Model& model, ExternalFiles external) {
@@ -355,12 +404,19 @@ void parse_model(const unsigned char* bytes, size_t size, bool binary, const std
   // With no directory in `name` (memory), tinygltf would resolve relative URIs against the
   // process's working directory; "refuse" keeps it from reading anything.
   const std::string base_dir = external == ExternalFiles::refuse ? std::string() : directory_of(name);
-  if (binary) {
-    const size_t length = check_glb_container(bytes, size, name);
-    ok = loader.LoadBinaryFromMemory(&model, &error, &warning, bytes, static_cast<unsigned int>(length), base_dir);
-  } else {
-    ok = loader.LoadASCIIFromString(&model, &error, &warning, reinterpret_cast<const char*>(bytes),
-                                    static_cast<unsigned int>(size), base_dir);
+  const auto length = static_cast<unsigned int>(checked_length(bytes, size, binary, name));
+  try {
+    ok = binary ? loader.LoadBinaryFromMemory(&model, &error, &warning, bytes, length, base_dir)
+                : loader.LoadASCIIFromString(&model, &error, &warning, reinterpret_cast<const char*>(bytes), length,
+                                             base_dir);
+  } catch (const std::bad_alloc&) {
+    throw;
+  } catch (const std::exception&) {
+    // tinygltf 2.7 reports most problems in `error` but indexes with at() in places: an
+    // inconsistent file, not a failure of the loader. Its exception's text (a standard
+    // library's internals) would tell the user nothing.
+    invalid(name, "not a valid glTF 2.0 file: the glTF parser failed on inconsistent data (for example a buffer "
+                  "whose byteLength is 0)");
   }
   // Images are optional to tinygltf (a failed image read is a warning), so a remembered
   // failure only explains a failed parse.

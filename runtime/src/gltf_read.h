@@ -66,12 +66,31 @@ enum class ExternalFiles {
 // True when `bytes` start with the GLB magic "glTF": the container to parse them as.
 bool is_glb(const unsigned char* bytes, size_t size);
 
+// The deepest nesting of JSON arrays and objects a glTF document may have. tinygltf converts
+// the JSON into its Value tree by recursion, one stack frame per level, so a document nested
+// thousands deep (valid JSON, a few bytes per level) would overflow the stack. glTF's own
+// schema needs 6 levels; the rest is headroom for extras and extensions.
+inline constexpr size_t kMaxJsonNesting = 64;
+
+// Throws GltfError(invalid), its message starting with `name`, when the JSON text `json` nests
+// arrays and objects deeper than kMaxJsonNesting. One linear pass counting brackets outside
+// strings; malformed JSON is left to the parser to report.
+void check_json_nesting(const unsigned char* json, size_t size, const std::string& name);
+
+// The checks parse_model makes before tinygltf sees `bytes`, for a caller that runs tinygltf
+// itself: for a .glb (binary = true) the container (header, chunk lengths), and the JSON
+// text's nesting (at most kMaxJsonNesting, counted in one pass outside strings). Throws
+// GltfError(invalid), or GltfError(unsupported) for a GLB version other than 2.
+void check_before_parsing(const unsigned char* bytes, size_t size, bool binary, const std::string& name);
+
 // Parses a .gltf (binary = false) or .glb (binary = true) held in `bytes` into `model`.
 // `name` appears in messages and, for .gltf, its directory resolves external buffer URIs.
-// Images are not decoded (only geometry and skins matter). The GLB container (header, chunk
-// lengths) is checked before tinygltf sees it, so truncated files fail cleanly. Files that
-// require a geometry-compression extension (Draco, meshopt, mesh quantization) are refused
-// as unsupported. File paths are never shell-expanded (tinygltf's default would).
+// Images are not decoded (only geometry and skins matter). check_before_parsing runs first,
+// so truncated files and too deeply nested JSON fail cleanly. Standard exceptions tinygltf
+// throws on inconsistent data (it indexes with at() in places) become GltfError(invalid)
+// naming the file; std::bad_alloc passes through. Files that require a geometry-compression
+// extension (Draco, meshopt, mesh quantization) are refused as unsupported. File paths are
+// never shell-expanded (tinygltf's default would).
 void parse_model(const unsigned char* bytes, size_t size, bool binary, const std::string& name,
                  tinygltf::Model& model, ExternalFiles external = ExternalFiles::read);
 

@@ -118,7 +118,10 @@ void rest_normal_offsets(const Deformable& d, glm::vec3* offsets);
 // The paper's homotopy (2)/(3) from (start_skeletal, start_control, start_normals) to S_L =
 // `skeletal`: L steps, normals recomputed from each step, d from `radius` (that of S_L) at
 // every step. `start_normals` may be null (they are then computed from start_control).
-// `normals_a`/`normals_b` are scratch (control count).
+// `normals_a`/`normals_b` are scratch (control count). L is at most kMaxHomotopySteps: each
+// step is a pass over the control mesh, and beyond a few the steps change nothing visible.
+constexpr uint32_t kMaxHomotopySteps = 100;
+constexpr uint32_t kDefaultHomotopySteps = 3;  // the paper's choice
 void reconstruct_homotopy(const Deformable& d, const glm::vec3* rest_offset, const glm::vec3* start_skeletal,
                           const glm::vec3* start_control, const glm::vec3* start_normals, const glm::vec3* skeletal,
                           const float* radius, uint32_t steps, glm::vec3* normals_a, glm::vec3* normals_b,
@@ -243,14 +246,17 @@ struct sf_instance {
 
   // Refined surface (and the control mesh's normal sums it is refined from; these three padded
   // by kVec3ReadPadding vectors, memory.h) and the dense result sf_instance_write copies out.
+  // An evaluation computes its result in skelform_* (SF_METHOD_SKELFORM) or lbs_* (the
+  // baselines) and swaps it into dense_* only once every value is known finite, so a refused
+  // evaluation leaves the last output as it was.
   skelform::runtime::Array<glm::vec3> control_normal_sums;
   skelform::runtime::Array<glm::vec3> refined_positions;
   skelform::runtime::Array<glm::vec3> refined_normals;
   skelform::runtime::Array<glm::vec3> dense_positions;
   skelform::runtime::Array<glm::vec3> dense_normals;
   skelform::runtime::Array<glm::vec4> dense_tangents;  // empty when no primitive has tangents
-  // Skin driver: skelform's own dense result (K) and LBS of the pose (L), which the guard
-  // blends into dense_* (lbs_guard.h); empty for an unskinned deformable.
+  // skelform's own dense result (K; with the skin driver, blended in place by the guard with
+  // LBS of the pose, L: lbs_guard.h). lbs_* are empty for an unskinned deformable.
   skelform::runtime::Array<glm::vec3> skelform_positions;
   skelform::runtime::Array<glm::vec3> skelform_normals;
   skelform::runtime::Array<glm::vec4> skelform_tangents;

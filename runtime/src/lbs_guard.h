@@ -82,7 +82,8 @@ struct GuardWorkspace {
 GuardWorkspace make_guard_workspace(const ContactMesh& mesh, const AllocatorRef& allocator);
 
 // `skelform` (K) and `lbs` (L) are this pose's dense results (positions, normals, tangents as
-// the evaluation computed them); `out` receives the blend. `with_normals`: also blend normals
+// the evaluation computed them); `out` receives the blend, and may be `skelform` itself (each
+// vertex is written after the last read of its own K). `with_normals`: also blend normals
 // (renormalised) and tangents.
 void guard_and_blend(const Deformable& d, const ContactMesh& mesh, float scale, const DenseOutput& skelform,
                      const DenseOutput& lbs, bool with_normals, const DenseOutput& out, GuardWorkspace& ws);

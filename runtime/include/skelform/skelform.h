@@ -93,7 +93,8 @@ typedef enum sf_result {
 SF_API uint32_t sf_version(void);
 
 /* A static, human-readable name for a result code ("SF_OK", "SF_ERROR_INVALID_DATA", ...).
- * Unknown values give "SF_ERROR_UNKNOWN". Never returns NULL. Thread-safe. */
+ * Any other value of the type, a negative one passed from C included, gives
+ * "SF_ERROR_UNKNOWN". Never returns NULL. Thread-safe. */
 SF_API const char* sf_result_string(sf_result result);
 
 /* ---------------------------------------------------------------------------------------- */
@@ -132,12 +133,27 @@ typedef struct sf_load_options {
  * is NULL. Memory: everything the asset keeps comes from options->allocator; the glTF parse
  * itself (tinygltf's document and the loader's temporaries, freed before the call returns)
  * uses the default heap (operator new). A .gltf loaded from memory never reads files: an
- * external buffer URI gives SF_ERROR_UNSUPPORTED. */
+ * external buffer URI gives SF_ERROR_UNSUPPORTED.
+ * Limits (docs/SKELFORM_skeletal_deformation.md "Limits"), within which the evaluation's
+ * arithmetic on the asset stays finite:
+ * - SF_ERROR_INVALID_DATA: a length of the asset beyond ±1e12 (POSITION of a deformable's
+ *   primitives, control.positions, control.skeletalPositions, control.medialRadius,
+ *   binding.displacement, binding.residual); a control.normals vector longer than 1 (to
+ *   1e-3); a subdivision.stencilWeights value outside [-1, 1]; a binding.barycentric (b1, b2)
+ *   outside its triangle (b1, b2 >= 0, b1 + b2 <= 1, to 1e-5).
+ * - SF_ERROR_UNSUPPORTED: more than 16 influence sets of four joints (control.joints entries,
+ *   or JOINTS_n attributes of a primitive) in one deformable; more than 65536 skin joints. */
 SF_API sf_result sf_asset_load_memory(const void* data, size_t size, const sf_load_options* options,
                                       sf_asset** out_asset);
 
 /* Loads a baked asset from a file (.glb or .gltf; a .gltf's external buffers are resolved
- * relative to its directory). */
+ * relative to its directory), with the limits of sf_asset_load_memory. At most 2^32 - 1 bytes
+ * are read (the largest GLB): a regular file to the size the file system reports; a FIFO or a
+ * device as a stream, a GLB only to the length its header states (the writer need not close
+ * it), other content to its end. Larger files, and streams that have not ended by then, give
+ * SF_ERROR_UNSUPPORTED; a stream whose first byte starts neither a GLB nor a JSON document
+ * (/dev/zero) gives SF_ERROR_INVALID_DATA at once; a file that cannot be opened or read,
+ * SF_ERROR_IO. */
 SF_API sf_result sf_asset_load_file(const char* path, const sf_load_options* options, sf_asset** out_asset);
 
 /* Releases an asset. NULL is ignored. All its instances must have been destroyed. */
@@ -200,8 +216,10 @@ SF_API const char* sf_instance_last_error(const sf_instance* instance);
 
 /* Skin driver input: `count` column-major 4x4 matrices (jointWorld × inverseBind) in the
  * skin's joint order, each `stride_bytes` apart (0 = 64, tightly packed). count must equal
- * the deformable's joint_count; matrices must be finite. Copied: the caller's array is not
- * referenced after the call. Selects the skin driver. */
+ * the deformable's joint_count; matrices must be finite (else SF_ERROR_INVALID_ARGUMENT, the
+ * previous pose kept). A finite pose too large for the asset (output that would overflow a
+ * float) is refused by sf_instance_evaluate. Copied: the caller's array is not referenced
+ * after the call. Selects the skin driver. */
 SF_API sf_result sf_instance_set_joint_matrices(sf_instance* instance, const float* matrices, size_t count,
                                                 size_t stride_bytes);
 
@@ -215,7 +233,9 @@ SF_API sf_result sf_instance_set_handle_set(sf_instance* instance, const uint32_
                                             const uint32_t* pinned, size_t pinned_count);
 
 /* Targets (x, y, z) for the handles of the current set, in its order, `stride_bytes` apart
- * (0 = 12). Selects the handle driver. */
+ * (0 = 12). Finite (else SF_ERROR_INVALID_ARGUMENT, the previous targets kept); targets so far
+ * away that the output would not be finite are refused by sf_instance_evaluate. Selects the
+ * handle driver. */
 SF_API sf_result sf_instance_set_handle_targets(sf_instance* instance, const float* targets, size_t count,
                                                 size_t stride_bytes);
 
@@ -291,7 +311,7 @@ typedef struct sf_eval_options {
   uint32_t method;              /* sf_method; 0 = SF_METHOD_SKELFORM */
   uint32_t skeleton_skinning;   /* sf_skeleton_skinning; 0 = SF_SKELETON_ARCS */
   uint32_t reconstruction;      /* sf_reconstruction; 0 = carried normals */
-  uint32_t homotopy_steps;      /* L of eq. (2); 0 = 3 (the paper's choice) */
+  uint32_t homotopy_steps;      /* L of eq. (2), <= 100; 0 = 3 (the paper's choice) */
   uint32_t flags;               /* SF_EVAL_* bits */
   /* Fairing (paper eqs. (4) and (5)), SF_METHOD_SKELFORM only; docs/runtime-api.md "Fairing".
    * Zero in every field = the defaults. */
@@ -319,7 +339,13 @@ typedef struct sf_eval_options {
  * and whenever the caller knows the pose jumped. A pose held bit for bit comes to rest (the
  * steps halve at each such evaluation). With sf_instance_set_contacts on, the contact pass
  * ends the evaluation. Deterministic: the same sequence of inputs gives the same output bits.
- * Never allocates. */
+ * Never allocates.
+ * Options out of range (an unknown enum value or flag, homotopy_steps above 100,
+ * fairing_iterations above 1000, a step outside [0, 10], intersection_grid above 32) give
+ * SF_ERROR_INVALID_ARGUMENT. So does a pose whose output would not be finite (joint matrices
+ * or handle targets too large for the asset, e.g. elements near FLT_MAX): it is refused
+ * before it replaces anything, sf_instance_write and sf_instance_write_coarse still give the
+ * last evaluation, and the next evaluation's fairing starts afresh, as after a pose jump. */
 SF_API sf_result sf_instance_evaluate(sf_instance* instance, const sf_eval_options* options);
 
 /* Where sf_instance_write puts one primitive's vertices. A NULL pointer skips that stream.
