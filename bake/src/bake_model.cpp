@@ -116,6 +116,11 @@ BakedDeformable bake_deformable(const InputMesh& group, const BakeOptions& optio
 
   stage("decimate");
   DecimatedMesh control = decimate(welded.mesh, options.target_triangles);
+  // Refused here rather than by the skeleton stage, before the tangent flow's work on it.
+  if (control.mesh.positions.size() > kMaxSkeletonVertices)
+    throw Error(ErrorKind::unsupported, "the control mesh has " + std::to_string(control.mesh.positions.size()) +
+                                            " vertices, more than the " + std::to_string(kMaxSkeletonVertices) +
+                                            " the skeleton stage takes (ask for fewer control triangles)");
 
   stage("tangent flow");
   TangentFlowOptions flow;

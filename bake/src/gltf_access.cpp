@@ -10,6 +10,9 @@
 #include <utility>
 
 namespace skelform::bake::gltf {
+
+static_assert(kMaxJsonNesting == skelform::gltf::kMaxJsonNesting, "the baker states the runtime reader's limit");
+
 namespace {
 
 ErrorKind kind_of(const skelform::gltf::GltfError& error) {

@@ -7,8 +7,10 @@
 #include "skelform/bake/gltf_writer.h"
 
 #include "skelform/bake/glb.h"
+#include "skelform/bake/input.h"
 
 #include "extension_layout.h"
+#include "gltf_read.h"
 #include "skelform/bake/mesh.h"
 #include "skelform/bake/output.h"
 
@@ -19,8 +21,6 @@
 #include <cmath>
 #include <cstring>
 #include <filesystem>
-#include <fstream>
-#include <iterator>
 #include <set>
 #include <stdexcept>
 #include <system_error>
@@ -65,12 +65,10 @@ void pad_to_4(std::string& bytes, char fill) {
   while (bytes.size() % 4 != 0) bytes.push_back(fill);
 }
 
+// Bounded as the input stage reads (input.h: kMaxInputFileBytes).
 std::string read_whole_file(const fs::path& path) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw Error(ErrorKind::io, "cannot open " + path.string());
-  std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-  if (in.bad()) throw Error(ErrorKind::io, "cannot read " + path.string());
-  return bytes;
+  const std::vector<unsigned char> bytes = read_input_file(path.string());
+  return std::string(bytes.begin(), bytes.end());
 }
 
 // ---------------------------------------------------------------------------------------
@@ -195,6 +193,13 @@ struct Container {
 Json parse_json(const char* begin, const char* end) {
   // Some exporters pad the GLB JSON chunk with NULs instead of spaces; tolerate both.
   while (end > begin && (end[-1] == '\0' || end[-1] == ' ')) --end;
+  // The document is written back out by a recursive serializer: its depth is bounded as the
+  // reader bounds it.
+  try {
+    skelform::gltf::check_json_nesting(reinterpret_cast<const unsigned char*>(begin), static_cast<size_t>(end - begin), "the glTF JSON");
+  } catch (const skelform::gltf::GltfError& e) {
+    invalid(e.what());
+  }
   Json document;
   try {
     document = Json::parse(begin, end);

@@ -25,9 +25,21 @@ InputMesh load_off(std::string_view text, const std::string& name);
 InputMesh load_gltf(const std::vector<unsigned char>& bytes, bool binary, const std::string& name,
                     const LoadOptions& options);
 
+// Refuses a mesh grown past kMaxInputVertices or kMaxInputTriangles (input.h). Loaders call
+// it as they append, so a file is refused before it takes more memory than those allow.
+inline void check_input_limits(size_t vertices, size_t triangles, const std::string& name) {
+  if (triangles > kMaxInputTriangles)
+    throw Error(ErrorKind::unsupported, name + ": more than " + std::to_string(kMaxInputTriangles) +
+                                            " triangles, the most skelform-bake reads (decimate the mesh first)");
+  if (vertices > kMaxInputVertices)
+    throw Error(ErrorKind::unsupported, name + ": more than " + std::to_string(kMaxInputVertices) +
+                                            " vertices, the most skelform-bake reads (decimate the mesh first)");
+}
+
 // Fan-triangulates one polygon (v0, vi, vi+1), the convention OBJ/PLY/OFF writers expect for
-// the convex polygons they emit.
-inline void append_fan(const std::vector<uint32_t>& polygon, std::vector<Triangle>& triangles) {
+// the convex polygons they emit; checks the triangle limit first.
+inline void append_fan(const std::vector<uint32_t>& polygon, std::vector<Triangle>& triangles, const std::string& name) {
+  check_input_limits(0, triangles.size() + (polygon.size() < 2 ? 0 : polygon.size() - 2), name);
   for (size_t i = 1; i + 1 < polygon.size(); ++i)
     triangles.push_back(Triangle{polygon[0], polygon[i], polygon[i + 1]});
 }

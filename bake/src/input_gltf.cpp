@@ -103,6 +103,9 @@ void append_skin_influences(const tinygltf::Model& model, const tinygltf::Primit
       break;
     }
     const std::string set_name = std::to_string(set);
+    if (set >= kMaxInfluenceSets)
+      throw Error(ErrorKind::unsupported, what + " has more than " + std::to_string(kMaxInfluenceSets) +
+                                              " JOINTS_n/WEIGHTS_n sets, the most skelform reads");
     if (joints == primitive.attributes.end()) invalid(what, "has WEIGHTS_" + set_name + " without JOINTS_" + set_name);
     if (weights == primitive.attributes.end()) invalid(what, "has JOINTS_" + set_name + " without WEIGHTS_" + set_name);
     const std::vector<glm::uvec4> joint_values = gltf::read_joints(model, joints->second, what + " JOINTS_" + set_name);
@@ -222,8 +225,9 @@ InputMesh load_gltf(const std::vector<unsigned char>& bytes, bool binary, const 
       if (position == primitive.attributes.end()) invalid(what, "has no POSITION attribute");
 
       const std::vector<Vec3> positions = gltf::read_vec3(model, position->second, what + " POSITION");
-      if (mesh.positions.size() + positions.size() > std::numeric_limits<uint32_t>::max())
-        throw Error(ErrorKind::unsupported, what + ": more than 2^32-1 vertices in total");
+      // Primitives may share accessors, so the totals grow faster than the file: checked
+      // before each primitive is added.
+      check_input_limits(mesh.positions.size() + positions.size(), mesh.triangles.size(), name);
       std::vector<uint32_t> corners;
       if (primitive.indices >= 0) {
         corners = gltf::read_indices(model, primitive.indices, positions.size(), what + " indices");
@@ -232,6 +236,7 @@ InputMesh load_gltf(const std::vector<unsigned char>& bytes, bool binary, const 
         for (size_t i = 0; i < corners.size(); ++i) corners[i] = static_cast<uint32_t>(i);
       }
       std::vector<Triangle> triangles = triangulate(mode, corners, what);
+      check_input_limits(mesh.positions.size() + positions.size(), mesh.triangles.size() + triangles.size(), name);
 
       InputPrimitive record;
       record.mesh = static_cast<int>(m);

@@ -34,6 +34,7 @@ InputMesh load_obj(std::string_view text, const std::string& name) {
           fail(name, scanner.line_number(), "non-finite vertex coordinate " + quote_token(token));
       }
       mesh.positions.push_back(p);
+      check_input_limits(mesh.positions.size(), mesh.triangles.size(), name);
     } else if (keyword == "f") {
       polygon.clear();
       for (std::string_view token = scanner.token(); !token.empty(); token = scanner.token()) {
@@ -61,7 +62,7 @@ InputMesh load_obj(std::string_view text, const std::string& name) {
       if (polygon.size() < 3)
         fail(name, scanner.line_number(),
              "face with " + std::to_string(polygon.size()) + " vertices (at least 3 needed)");
-      append_fan(polygon, mesh.triangles);
+      append_fan(polygon, mesh.triangles, name);
       triangle_line.resize(mesh.triangles.size(), static_cast<uint32_t>(scanner.line_number()));
     }
   }

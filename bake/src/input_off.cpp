@@ -75,6 +75,8 @@ InputMesh load_off(std::string_view text, const std::string& name) {
     fail(name, scanner.line_number(), "bad counts: " + std::to_string(vertex_count) + " vertices and " +
                                           std::to_string(face_count) + " faces cannot fit in " +
                                           std::to_string(text.size()) + " bytes");
+  // Every face gives at least one triangle.
+  check_input_limits(static_cast<size_t>(vertex_count), static_cast<size_t>(face_count), name);
   if (vertex_count == 0) throw Error(ErrorKind::invalid_input, name + ": no vertices (the counts line says 0)");
   if (face_count == 0) throw Error(ErrorKind::invalid_input, name + ": no faces (the counts line says 0)");
 
@@ -119,7 +121,7 @@ InputMesh load_off(std::string_view text, const std::string& name) {
                                               " out of range (" + std::to_string(vertex_count) + " vertices)");
       polygon.push_back(static_cast<uint32_t>(index));
     }
-    append_fan(polygon, mesh.triangles);
+    append_fan(polygon, mesh.triangles, name);
   }
 
   InputPrimitive whole;

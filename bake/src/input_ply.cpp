@@ -140,6 +140,21 @@ class BodyReader {
   throw Error(ErrorKind::invalid_input, name + ": " + what);
 }
 
+// Every row of an element with properties takes at least one byte of the body (binary) or
+// two (ASCII: a value and a separator), so rows beyond the body's size in total are a lie,
+// refused before any is read: counts checked per element alone would let many elements of
+// large counts each pass, and reading them cost their sum.
+void check_total_rows(const std::vector<Element>& elements, size_t body_bytes, const std::string& name) {
+  uint64_t rows = 0;
+  for (const Element& element : elements) {
+    if (element.properties.empty()) continue;
+    if (element.count > body_bytes - rows)
+      fail(name, "element '" + element.name + "' declares " + std::to_string(element.count) + " rows, more than the " +
+                     std::to_string(body_bytes - rows) + " bytes of the body left for it after the elements before it");
+    rows += element.count;
+  }
+}
+
 }  // namespace
 
 InputMesh load_ply(const std::vector<unsigned char>& bytes, const std::string& name) {
@@ -207,6 +222,7 @@ InputMesh load_ply(const std::vector<unsigned char>& bytes, const std::string& n
   std::vector<uint32_t> polygon;
   bool have_faces = false;
   BodyReader reader(bytes, body_offset, encoding, name);
+  check_total_rows(elements, reader.remaining(), name);
   for (const Element& element : elements) {
     const bool is_vertex = element.name == "vertex";
     const bool is_face = element.name == "face";
@@ -225,12 +241,12 @@ InputMesh load_ply(const std::vector<unsigned char>& bytes, const std::string& n
       fail(name, "element 'vertex' lacks an x, y or z property");
     if (is_face && face_list < 0) fail(name, "element 'face' has no vertex_indices list");
     if (is_face) have_faces = element.count > 0;
-    // Every row takes at least one byte (binary) or two (ASCII value plus separator):
-    // a larger count is a lie, and reserving it would exhaust memory.
-    if (element.count > reader.remaining())
-      fail(name, "element '" + element.name + "' declares " + std::to_string(element.count) +
-                     " rows but the body has only " + std::to_string(reader.remaining()) + " bytes");
-    if (is_vertex) mesh.positions.reserve(static_cast<size_t>(element.count));
+    // Rows without properties take no bytes and hold nothing: skipped whole, not counted out.
+    if (element.properties.empty()) continue;
+    if (is_vertex) {
+      check_input_limits(mesh.positions.size() + static_cast<size_t>(element.count), mesh.triangles.size(), name);
+      mesh.positions.reserve(mesh.positions.size() + static_cast<size_t>(element.count));
+    }
 
     for (uint64_t row = 0; row < element.count; ++row) {
       const Where where{element.name, row};
@@ -259,7 +275,7 @@ InputMesh load_ply(const std::vector<unsigned char>& bytes, const std::string& n
         if (wanted) {
           if (polygon.size() < 3)
             fail(name, where.text() + ": face with " + std::to_string(polygon.size()) + " vertices (at least 3 needed)");
-          append_fan(polygon, mesh.triangles);
+          append_fan(polygon, mesh.triangles, name);
           face_of_triangle.resize(mesh.triangles.size(), row);
         }
       }

@@ -145,20 +145,31 @@ Delaunay delaunay_cells(const std::vector<Vec3>& points) {
 }
 
 // Gives every vertex without Voronoi candidates the mean d of its one-ring neighbours that have
-// one, front by front (each pass only reads values from earlier passes, so the result does not
+// one, front by front (each front only reads values from earlier fronts, so the result does not
 // depend on vertex order). A connected component where no vertex has a candidate keeps d = 0:
-// the skeleton there coincides with the surface, which still satisfies M = S + d·N.
+// the skeleton there coincides with the surface, which still satisfies M = S + d·N. Each front
+// is found from the previous one, so the whole fill is linear in the mesh size.
 void fill_medial_radius_from_neighbours(const VertexAdjacency& adjacency, std::vector<double>& medial_radius,
                                         std::vector<bool>& known) {
   const size_t vertex_count = medial_radius.size();
-  std::vector<uint32_t> unknown;
+  std::vector<bool> in_front(vertex_count, false);
+  std::vector<uint32_t> front;
+  auto enqueue_unknown_neighbours = [&](uint32_t v, std::vector<uint32_t>& next) {
+    for (uint32_t k = adjacency.offsets[v]; k < adjacency.offsets[v + 1]; ++k) {
+      const uint32_t neighbour = adjacency.neighbours[k];
+      if (known[neighbour] || in_front[neighbour]) continue;
+      in_front[neighbour] = true;
+      next.push_back(neighbour);
+    }
+  };
   for (uint32_t v = 0; v < vertex_count; ++v)
-    if (!known[v]) unknown.push_back(v);
-  std::vector<std::pair<uint32_t, double>> resolved;
-  while (!unknown.empty()) {
-    resolved.clear();
-    std::vector<uint32_t> still_unknown;
-    for (uint32_t v : unknown) {
+    if (known[v]) enqueue_unknown_neighbours(v, front);
+  std::vector<double> front_radius;
+  std::vector<uint32_t> next;
+  while (!front.empty()) {
+    front_radius.assign(front.size(), 0.0);
+    for (size_t i = 0; i < front.size(); ++i) {
+      const uint32_t v = front[i];
       double sum = 0.0;
       uint32_t count = 0;
       for (uint32_t k = adjacency.offsets[v]; k < adjacency.offsets[v + 1]; ++k) {
@@ -167,26 +178,28 @@ void fill_medial_radius_from_neighbours(const VertexAdjacency& adjacency, std::v
         sum += medial_radius[neighbour];
         ++count;
       }
-      if (count > 0) {
-        resolved.emplace_back(v, sum / count);
-      } else {
-        still_unknown.push_back(v);
-      }
+      front_radius[i] = sum / count;  // count >= 1: v joined the front through a known neighbour
     }
-    if (resolved.empty()) break;  // the rest are in components without any candidate
-    for (const auto& [v, d] : resolved) {
-      medial_radius[v] = d;
-      known[v] = true;
+    for (size_t i = 0; i < front.size(); ++i) {
+      medial_radius[front[i]] = front_radius[i];
+      known[front[i]] = true;
     }
-    unknown.swap(still_unknown);
+    next.clear();
+    for (uint32_t v : front) enqueue_unknown_neighbours(v, next);
+    front.swap(next);
   }
-  for (uint32_t v : unknown) medial_radius[v] = 0.0;
+  for (uint32_t v = 0; v < vertex_count; ++v)
+    if (!known[v]) medial_radius[v] = 0.0;
 }
 
 }  // namespace
 
 SkeletalMesh extract_skeleton(const TriangleMesh& mesh, const SkeletonOptions& options) {
   const size_t vertex_count = mesh.positions.size();
+  if (vertex_count > kMaxSkeletonVertices)
+    throw Error(ErrorKind::unsupported, "skeleton: " + std::to_string(vertex_count) + " vertices, more than the " +
+                                            std::to_string(kMaxSkeletonVertices) +
+                                            " the Voronoi skeleton takes (decimate the mesh first)");
   for (const Vec3& p : mesh.positions)
     if (!is_finite(p)) throw Error(ErrorKind::invalid_input, "skeleton: mesh has a non-finite vertex position");
   for (const Triangle& t : mesh.triangles)

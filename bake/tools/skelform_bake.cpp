@@ -8,6 +8,7 @@
 // --help); outputs are written atomically, so a failed run never leaves a partial file.
 #include "progress.h"
 #include "skelform/bake/bake.h"
+#include "skelform/bake/gltf_access.h"
 #include "skelform/bake/gltf_writer.h"
 #include "skelform/bake/input.h"
 #include "skelform/bake/metrics.h"
@@ -62,8 +63,27 @@ const char* const kUsage =
     "  -h, --help                  this text\n"
     "  --version                   print the version\n"
     "\n"
+    "\n";
+
+const char* const kExitCodes =
     "Exit codes: 0 success, 1 bad command line, 2 invalid or unsupported input,\n"
     "            3 file could not be read or written, 4 internal error.\n";
+
+// The --help text: the limits come from the constants that enforce them.
+std::string usage() {
+  const std::string limits =
+      "Limits (beyond them the input is refused, exit 2; decimate or split the mesh first):\n"
+      "  input file        " + std::to_string(kMaxInputFileBytes >> 20) + " MiB (a pipe or device is read until it passes this)\n"
+      "  input mesh        " + std::to_string(kMaxInputTriangles) + " triangles, " + std::to_string(kMaxInputVertices) +
+      " vertices\n"
+      "  glTF              JSON nested at most " + std::to_string(skelform::bake::gltf::kMaxJsonNesting) +
+      " deep; at most " + std::to_string(kMaxInfluenceSets) + " JOINTS_n sets per primitive\n"
+      "  PLY               the rows of all elements together fit in the body's bytes\n"
+      "  skeleton          " + std::to_string(kMaxSkeletonVertices) + " vertices: the welded input of the skeleton\n"
+      "                    command; the control mesh of a bake (lower --target-triangles)\n"
+      "\n";
+  return kUsage + limits + kExitCodes;
+}
 
 struct Arguments {
   std::string command;
@@ -174,6 +194,11 @@ int run_skeleton(const Arguments& args) {
   timer.start();
   const WeldedMesh welded = weld(input);
   timer.stop("weld");
+  // extract_skeleton refuses it too, but only after the tangent flow's work.
+  if (welded.mesh.positions.size() > kMaxSkeletonVertices)
+    throw Error(ErrorKind::unsupported, args.input + ": " + std::to_string(welded.mesh.positions.size()) +
+                                            " welded vertices, more than the " + std::to_string(kMaxSkeletonVertices) +
+                                            " the skeleton command takes (decimate the mesh first)");
 
   timer.start();
   TriangleMesh control = welded.mesh;
@@ -267,7 +292,7 @@ int main(int argc, char** argv) {
   for (int i = 1; i < argc; ++i) {
     const std::string arg = argv[i];
     if (arg == "-h" || arg == "--help") {
-      std::fputs(kUsage, stdout);
+      std::fputs(usage().c_str(), stdout);
       return kExitOk;
     }
     if (arg == "--version") {

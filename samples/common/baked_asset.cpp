@@ -1,6 +1,7 @@
 #include "baked_asset.h"
 
 #include "cli.h"
+#include "gltf_animation.h"
 #include "skelform/bake/gltf_writer.h"
 #include "skelform/bake/input.h"
 
@@ -27,7 +28,11 @@ uint32_t read_u32(const std::string& bytes, size_t offset) {
 
 std::string read_file_bytes(const std::string& path) {
   std::error_code error;
-  if (!std::filesystem::is_regular_file(path, error)) fail(kExitIo, "cannot read " + path + ": no such file");
+  if (!std::filesystem::is_regular_file(path, error))
+    fail(kExitIo, "cannot read " + path + (std::filesystem::exists(path, error) ? ": not a regular file" : ": no such file"));
+  const uintmax_t size = std::filesystem::file_size(path, error);
+  if (!error && size > kMaxFileBytes)
+    fail(kExitInvalidInput, path + ": larger than " + std::to_string(kMaxFileBytes >> 20) + " MiB, the most the sample tools read");
   std::ifstream file(path, std::ios::binary);
   std::ostringstream contents;
   contents << file.rdbuf();

@@ -33,7 +33,8 @@ struct LoadedAsset {
   std::vector<std::string> warnings;  // exporter defects the in-memory bake repaired (input.h)
 };
 
-// Reads the whole file. Throws Failure (kExitIo) when it cannot.
+// Reads the whole file, which must be a regular file of at most kMaxFileBytes
+// (gltf_animation.h). Throws Failure: kExitIo when it cannot, kExitInvalidInput when larger.
 std::string read_file_bytes(const std::string& path);
 
 // The glTF JSON of .glb or .gltf bytes (the container recognised by its bytes). Throws Failure

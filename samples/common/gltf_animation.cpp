@@ -13,8 +13,11 @@
 
 #include <algorithm>
 #include <cmath>
+#include <exception>
+#include <filesystem>
 #include <fstream>
 #include <iterator>
+#include <new>
 #include <optional>
 
 namespace skelform::samples {
@@ -195,10 +198,25 @@ void sample_channel(const Channel& channel, double time, double* out) {
   }
 }
 
+std::string too_large(const std::string& path) {
+  return path + ": larger than " + std::to_string(kMaxFileBytes >> 20) + " MiB, the most the sample tools read";
+}
+
+// In chunks up to kMaxFileBytes: a stream without an end is refused once it passes the limit.
 std::vector<unsigned char> read_file_bytes(const std::string& path) {
+  std::error_code error;
+  if (std::filesystem::is_regular_file(path, error) && std::filesystem::file_size(path, error) > kMaxFileBytes && !error)
+    throw GltfError(too_large(path));
   std::ifstream file(path, std::ios::binary);
   if (!file) throw GltfError(path + ": cannot open the file");
-  std::vector<unsigned char> bytes((std::istreambuf_iterator<char>(file)), std::istreambuf_iterator<char>());
+  std::vector<unsigned char> bytes;
+  char chunk[1 << 16];
+  while (file) {
+    file.read(chunk, sizeof chunk);
+    const size_t n = static_cast<size_t>(file.gcount());
+    if (bytes.size() + n > kMaxFileBytes) throw GltfError(too_large(path));
+    bytes.insert(bytes.end(), chunk, chunk + n);
+  }
   if (file.bad()) throw GltfError(path + ": read error");
   return bytes;
 }
@@ -443,12 +461,24 @@ GltfAnimation GltfAnimation::load_memory(const std::string& bytes, const std::st
       tinygltf::FsCallbacks{tinygltf::FileExists, literal_path, tinygltf::ReadWholeFile, tinygltf::WriteWholeFile, nullptr});
   std::string error, warning;
   const bool binary = bytes.size() >= 4 && bytes.compare(0, 4, "glTF") == 0;
-  const bool loaded =
-      binary ? loader.LoadBinaryFromMemory(&impl->model, &error, &warning,
-                                           reinterpret_cast<const unsigned char*>(bytes.data()),
-                                           static_cast<unsigned int>(bytes.size()), base_dir)
-             : loader.LoadASCIIFromString(&impl->model, &error, &warning, bytes.data(),
-                                          static_cast<unsigned int>(bytes.size()), base_dir);
+  const auto* data = reinterpret_cast<const unsigned char*>(bytes.data());
+  bool loaded = false;
+  // The runtime's checks before tinygltf (GLB container, JSON nesting) and its treatment of
+  // the standard exceptions tinygltf throws on inconsistent data: an invalid file.
+  try {
+    gltf::check_before_parsing(data, bytes.size(), binary, name);
+    loaded = binary ? loader.LoadBinaryFromMemory(&impl->model, &error, &warning, data,
+                                                  static_cast<unsigned int>(bytes.size()), base_dir)
+                    : loader.LoadASCIIFromString(&impl->model, &error, &warning, bytes.data(),
+                                                 static_cast<unsigned int>(bytes.size()), base_dir);
+  } catch (const gltf::GltfError& e) {
+    throw GltfError(e.what());
+  } catch (const std::bad_alloc&) {
+    throw;
+  } catch (const std::exception&) {
+    throw GltfError(name + ": not a valid glTF file: the glTF parser failed on inconsistent data (for example a "
+                           "buffer whose byteLength is 0)");
+  }
   if (!loaded) {
     // tinygltf's messages can span lines; keep the first for a one-line error.
     std::string first = error.substr(0, error.find('\n'));

@@ -58,12 +58,17 @@ struct AnimationInfo {
 // files and a posed skeleton in others (bind_pose_joint_matrices).
 inline constexpr size_t kStaticPose = std::numeric_limits<size_t>::max();
 
+// The largest file the sample tools read (1 GiB, as skelform-bake): a regular file's size is
+// checked before reading, anything else (a FIFO, a device such as /dev/zero) is read until
+// it passes the limit, so no input makes a tool read until memory runs out.
+inline constexpr size_t kMaxFileBytes = size_t{1} << 30;
+
 // A loaded, validated glTF document. Immutable after loading; any number of threads may
 // sample it at once. Movable, not copyable.
 class GltfAnimation {
  public:
-  // Reads a .gltf (external buffers resolved beside it) or .glb file; the container is
-  // recognised by its bytes, not the file name.
+  // Reads a .gltf (external buffers resolved beside it) or .glb file of at most
+  // kMaxFileBytes; the container is recognised by its bytes, not the file name.
   static GltfAnimation load_file(const std::string& path);
   // The same on bytes in memory; `name` is used in messages and `base_dir` resolves
   // external URIs of a .gltf (data URIs need none).

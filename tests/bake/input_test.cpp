@@ -511,6 +511,41 @@ TEST_CASE("input: bad glTF files are rejected with a message naming the problem"
   check_rejected("not_glb.glb", "glTX this is not a binary glTF", ErrorKind::invalid_input, "bad magic");
 }
 
+TEST_CASE("input: limits: JSON nesting, influence sets and PLY row counts are refused before the work") {
+  const GltfParts parts;
+  const std::string text = parts.json("data:application/octet-stream;base64," + base64(parts.buffer()));
+  // 65 levels of arrays in the root's extras: valid JSON, beyond the 64 a glTF may nest.
+  std::string deep = text;
+  deep.insert(1, "\"extras\":" + std::string(65, '[') + std::string(65, ']') + ",");
+  check_rejected("deep.gltf", deep, ErrorKind::invalid_input, "nested deeper than 64");
+  std::string fine = text;
+  fine.insert(1, "\"extras\":" + std::string(60, '[') + std::string(60, ']') + ",");
+  REQUIRE_NOTHROW(load_mesh_from_memory(bytes_of(fine), ".gltf", "fine.gltf"));
+
+  // JOINTS_1 .. JOINTS_16 naming the same accessors: 17 sets, one beyond the limit.
+  const size_t at = text.find("\"JOINTS_0\"");
+  REQUIRE(at != std::string::npos);
+  const size_t end = text.find('}', at);
+  const std::string pair = text.substr(at, end - at);  // "JOINTS_0":a,"WEIGHTS_0":b
+  std::string sets;
+  for (int s = 1; s <= 16; ++s) {
+    std::string copy = pair;
+    for (const char* name : {"JOINTS_0", "WEIGHTS_0"}) {
+      const std::string from(name), to = from.substr(0, from.size() - 1) + std::to_string(s);
+      copy.replace(copy.find(from), from.size(), to);
+    }
+    sets += "," + copy;
+  }
+  std::string many = text;
+  many.insert(end, sets);
+  check_rejected("influences.gltf", many, ErrorKind::unsupported, "more than 16 JOINTS_n/WEIGHTS_n sets");
+
+  // Two elements of 60 rows each in a body of 100 bytes: each alone fits, together they cannot.
+  const std::string head = "ply\nformat binary_little_endian 1.0\nelement extra 60\nproperty uchar a\n"
+                           "element vertex 60\nproperty uchar x\nproperty uchar y\nproperty uchar z\nend_header\n";
+  check_rejected("rows.ply", head + std::string(100, '\0'), ErrorKind::invalid_input, "element 'vertex' declares 60 rows");
+}
+
 TEST_CASE("input: a generated .glb cut at every length fails with an Error, never a crash") {
   const std::vector<unsigned char> whole = GltfParts().glb();
   REQUIRE_NOTHROW(load_mesh_from_memory(whole, ".glb", "whole.glb"));

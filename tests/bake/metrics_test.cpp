@@ -70,6 +70,48 @@ TEST_CASE("metrics: winding number flips sign with orientation and is about 1/2 
   CHECK(winding_numbers(hemisphere, {{0, 0, 0}})[0] == doctest::Approx(0.5).epsilon(1e-9));
 }
 
+TEST_CASE("metrics: the hierarchical winding number stays within 2e-3 of the exact one") {
+  // The procedural character (many parts, thin limbs: queries near and far from every node)
+  // and an open hemisphere (winding numbers between 0 and 1), at random points in and around
+  // their bounding boxes, and at points just off the surface.
+  TriangleMesh hemisphere;
+  const TriangleMesh sphere = make_uv_sphere(1.0, 48, 24);
+  hemisphere.positions = sphere.positions;
+  for (const Triangle& t : sphere.triangles)
+    if (sphere.positions[t[0]].z + sphere.positions[t[1]].z + sphere.positions[t[2]].z > 0) hemisphere.triangles.push_back(t);
+  for (const TriangleMesh& mesh : {make_test_character(), hemisphere}) {
+    Vec3 lo(std::numeric_limits<double>::max()), hi(std::numeric_limits<double>::lowest());
+    for (const Vec3& p : mesh.positions) lo = glm::min(lo, p), hi = glm::max(hi, p);
+    const Vec3 margin = 0.25 * (hi - lo);
+    std::mt19937 rng(7);
+    std::uniform_real_distribution<double> u(0.0, 1.0);
+    std::vector<Vec3> queries;
+    for (int i = 0; i < 1500; ++i)
+      queries.push_back(lo - margin + Vec3(u(rng), u(rng), u(rng)) * (hi - lo + 2.0 * margin));
+    for (size_t t = 0; t < mesh.triangles.size(); t += 7) {
+      const Triangle& tri = mesh.triangles[t];
+      const Vec3 a = mesh.positions[tri[0]], b = mesh.positions[tri[1]], c = mesh.positions[tri[2]];
+      const Vec3 n = glm::cross(b - a, c - a);
+      if (glm::length(n) == 0.0) continue;
+      const double offset = 1e-3 * glm::length(hi - lo) * (t % 2 == 0 ? 1.0 : -1.0);
+      queries.push_back((a + b + c) / 3.0 + offset * glm::normalize(n));
+    }
+    const std::vector<double> exact = winding_numbers(mesh, queries);
+    const std::vector<double> fast = fast_winding_numbers(mesh, queries);
+    REQUIRE(fast.size() == exact.size());
+    double worst = 0.0;
+    size_t disagree = 0;
+    for (size_t q = 0; q < queries.size(); ++q) {
+      REQUIRE(std::isfinite(fast[q]));
+      worst = std::max(worst, std::abs(fast[q] - exact[q]));
+      disagree += (fast[q] > 0.5) != (exact[q] > 0.5) ? 1u : 0u;
+    }
+    CAPTURE(mesh.triangles.size());
+    CHECK(worst < 2e-3);
+    CHECK(disagree == 0);
+  }
+}
+
 TEST_CASE("metrics: TriangleTree closest point equals brute force on random queries") {
   TriangleMesh mesh = make_capsule(0.7, 2.0, 17, 5, 6);
   // Jitter the vertices so triangles have all orientations and sizes.

@@ -25,6 +25,7 @@
 #include <glm/mat4x4.hpp>
 #include <glm/vec4.hpp>
 
+#include <cstddef>
 #include <cstdint>
 #include <string>
 #include <vector>
@@ -35,12 +36,19 @@ class Model;
 
 namespace skelform::bake::gltf {
 
+// The deepest nesting of JSON arrays and objects a glTF document may have; deeper documents
+// are refused as invalid before tinygltf parses them (its parser recurses once per level).
+// The runtime's reader enforces it; this is its value for the baker's callers.
+inline constexpr size_t kMaxJsonNesting = 64;
+
 // Parses a .gltf (binary = false) or .glb (binary = true) held in `bytes` into `model`.
 // `name` appears in messages and, for .gltf, its directory resolves external buffer URIs.
 // Images are not decoded (only geometry and skins matter to the baker). The GLB container
-// (header, chunk lengths) is checked before tinygltf sees it, so truncated files fail
-// cleanly. Files that require a geometry-compression extension (Draco, meshopt, mesh
-// quantization) are refused as unsupported.
+// (header, chunk lengths) and the JSON nesting are checked before tinygltf sees them, so
+// truncated or too deeply nested files fail cleanly; any standard exception tinygltf throws
+// on inconsistent data is an invalid_input Error naming the file. Files that require a
+// geometry-compression extension (Draco, meshopt, mesh quantization) are refused as
+// unsupported.
 void parse_model(const std::vector<unsigned char>& bytes, bool binary, const std::string& name,
                  tinygltf::Model& model);
 

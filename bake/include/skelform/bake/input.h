@@ -10,6 +10,7 @@
 #include "skelform/bake/mesh.h"
 
 #include <array>
+#include <cstddef>
 #include <cstdint>
 #include <string>
 #include <vector>
@@ -49,6 +50,23 @@ struct InputMesh {
   std::vector<std::string> warnings;
 };
 
+// Limits of the input stage, the same for every format, so that no file makes the baker read
+// or allocate without bound. Each loader checks them as it goes, before memory grows past
+// them; an input beyond one is refused as unsupported, with the advice to decimate or split
+// the mesh first.
+//
+// The largest file read: a regular file's size is checked before reading; anything else (a
+// pipe, a device such as /dev/zero) is read until it passes the limit.
+inline constexpr uint64_t kMaxInputFileBytes = uint64_t{1} << 30;  // 1 GiB
+// The most triangles, after polygons, strips and fans are triangulated: 2^23 = 8,388,608,
+// about four times the largest skinned meshes the baker is tested on.
+inline constexpr size_t kMaxInputTriangles = size_t{1} << 23;
+// The most vertices: three per triangle, as in a mesh that shares none.
+inline constexpr size_t kMaxInputVertices = 3 * kMaxInputTriangles;
+// The most JOINTS_n/WEIGHTS_n sets of one glTF primitive (64 influences per vertex); the
+// runtime refuses assets with more.
+inline constexpr size_t kMaxInfluenceSets = 16;
+
 struct LoadOptions {
   // glTF: also load triangle primitives of meshes no skinned node uses. OBJ/PLY/OFF are
   // always loaded whole.
@@ -56,8 +74,14 @@ struct LoadOptions {
 };
 
 // Loads by file extension (case-insensitive): .gltf, .glb, .obj, .ply, .off.
-// Throws Error on unreadable, malformed or invalid input; never returns an empty mesh.
+// Throws Error on unreadable, malformed or invalid input, or input beyond the limits above;
+// never returns an empty mesh.
 InputMesh load_mesh(const std::string& path, const LoadOptions& options = {});
+
+// The bytes of the file at `path` as load_mesh reads them: at most kMaxInputFileBytes, and a
+// .glb (by its extension) no further than the length its header declares. Throws
+// Error(io) when it cannot be opened or read, Error(unsupported) beyond the limit.
+std::vector<unsigned char> read_input_file(const std::string& path);
 
 // The same loaders on bytes already in memory; `name` is used in messages and, for .gltf,
 // as the base for resolving external buffer URIs. `extension` selects the format (".obj", ...).

@@ -9,10 +9,20 @@
 namespace skelform::bake {
 
 // Generalized winding number of a closed (or nearly closed) triangle mesh at each query point
-// (Jacobson et al. 2013: sum of signed solid angles / 4π). > 0.5 means inside.
+// (Jacobson et al. 2013: sum of signed solid angles / 4π). > 0.5 means inside. Exact, and
+// O(queries × triangles): the reference fast_winding_numbers is measured against.
 std::vector<double> winding_numbers(const TriangleMesh& mesh, const std::vector<Vec3>& queries);
 
-// Fraction of queries with winding number > 0.5.
+// The same winding numbers in O((triangles + queries) log triangles), by the hierarchical
+// approximation of Barill et al. 2018: a bounding-volume hierarchy over the triangles, each
+// node far from the query (beyond three times its radius) replaced by its second-order
+// multipole expansion, the near ones summed exactly. The error, within 2e-3 of
+// winding_numbers on the test meshes, is far below the distance from 1/2 an inside test
+// needs: a closed mesh's winding number is 0 or ±1. Runs on every hardware thread; the
+// result does not depend on their number.
+std::vector<double> fast_winding_numbers(const TriangleMesh& mesh, const std::vector<Vec3>& queries);
+
+// Fraction of queries with winding number > 0.5, by fast_winding_numbers.
 double inside_fraction(const TriangleMesh& mesh, const std::vector<Vec3>& queries);
 
 // Bounding-volume hierarchy over a mesh's triangles for closest-point queries.

@@ -3,9 +3,16 @@
 
 #include "skelform/bake/mesh.h"
 
+#include <cstddef>
 #include <vector>
 
 namespace skelform::bake {
+
+// The most vertices extract_skeleton accepts: 2^19 = 524,288, a closed mesh of about a
+// million triangles. The Delaunay tetrahedralization (Qhull) dominates the extraction's time
+// and memory, both growing slightly faster than linearly; the limit bounds them. Decimate
+// larger meshes first, as the bake does.
+inline constexpr size_t kMaxSkeletonVertices = size_t{1} << 19;
 
 struct SkeletonOptions {
   // Inner Voronoi vertices outside the mesh bounding box grown by this fraction of its
@@ -27,9 +34,10 @@ struct SkeletalMesh {
   size_t vertices_without_candidates = 0;
 };
 
-// Throws Error(invalid_input) when the mesh has fewer than 4 distinct vertices used by
-// triangles, when those are all coplanar, when a position is not finite or an index is out of
-// range, and when Qhull fails (its message in the Error; Qhull never prints).
+// Throws Error(unsupported) for a mesh of more than kMaxSkeletonVertices vertices, and
+// Error(invalid_input) when the mesh has fewer than 4 distinct vertices used by triangles,
+// when those are all coplanar, when a position is not finite or an index is out of range, and
+// when Qhull fails (its message in the Error; Qhull never prints).
 // Rules beyond the paper: the mesh must be outward-oriented (N is the outward normal and
 // candidates are taken on its negative side). A vertex whose only inner Voronoi vertex is its
 // pole keeps it (exactly cospherical input, e.g. a sphere, has one merged Delaunay cell whose
