@@ -193,7 +193,16 @@ std::vector<double> frame_times(double duration, double fps, size_t max_frames) 
   } else {
     for (size_t k = 0; k < max_frames; ++k) times.push_back(duration * double(k) / double(max_frames - 1));
   }
-  return times;
+  // The output stores the times as floats, which glTF requires strictly increasing: a frame
+  // that rounds onto the next one's float (a duration just past a whole frame, or many frames
+  // in a short animation) is dropped; the last, the end of the animation, always stays.
+  std::vector<double> kept;
+  for (size_t k = 0; k < times.size(); ++k)
+    if (k + 1 == times.size() || float(times[k]) < float(times[k + 1])) {
+      if (!kept.empty() && float(kept.back()) >= float(times[k])) kept.pop_back();
+      kept.push_back(times[k]);
+    }
+  return kept;
 }
 
 int run(const Arguments& args) {

@@ -348,9 +348,12 @@ void GltfAnimation::Impl::validate_animations(const AccessorReader& reader) {
       else reader.fail(sampler_label + " has unknown interpolation '" + sampler.interpolation + "'");
       decoded.times = reader.read(sampler.input, sampler_label + " input", TINYGLTF_TYPE_SCALAR,
                                   {TINYGLTF_COMPONENT_TYPE_FLOAT});
+      // glTF requires strictly increasing key times, but exporters write a repeated key (the
+      // last one, typically): a jump at that instant, which sample_channel plays as such (it
+      // interpolates only between keys of different times). Decreasing times are refused.
       for (size_t i = 1; i < decoded.times.size(); ++i)
-        if (!(decoded.times[i] > decoded.times[i - 1]))
-          reader.fail(sampler_label + " input is not strictly increasing at keyframe " + std::to_string(i));
+        if (!(decoded.times[i] >= decoded.times[i - 1]))
+          reader.fail(sampler_label + " input decreases at keyframe " + std::to_string(i));
       const size_t keyframes = decoded.times.size();
       const size_t per_keyframe = decoded.interpolation == Interpolation::cubic_spline ? 3 : 1;
       if (decoded.path == Path::weights) {

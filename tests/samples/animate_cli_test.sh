@@ -55,6 +55,13 @@ cmp -s "$WORK/contacts.anim.glb" "$WORK/contacts.again.glb" || fail "skelform-an
 node "$CHECK" "$WORK/contacts.anim.glb" --frames 8,8 >/dev/null || fail "contacts.anim.glb breaks the contract"
 validate "$WORK/contacts.anim.glb"
 
+# Frame times are stored as floats, strictly increasing: at 30.0000006 fps the bend's 3 s
+# hold 91 frame steps and a bit, and the 91st step (2.99999994 s) rounds onto the end's float
+# (3.0): it is dropped, 91 frames, as at 30 fps.
+"$ANIMATE" -q "$WORK/character.glb" -o "$WORK/rounding.anim.glb" --fps 30.0000006 || fail "--fps 30.0000006"
+validate "$WORK/rounding.anim.glb"
+node "$CHECK" "$WORK/rounding.anim.glb" --frames 31,91 >/dev/null || fail "rounding.anim.glb: frame counts"
+
 # --fps and --max-frames: walk 1 s at 10 fps = 11 frames, bend 3 s = 31, both capped at 5.
 "$ANIMATE" -q "$WORK/character.glb" -o "$WORK/capped.anim.glb" --fps 10 --max-frames 5 || fail "--fps 10 --max-frames 5"
 node "$CHECK" "$WORK/capped.anim.glb" --frames 5,5 --fps 10 >/dev/null || fail "capped.anim.glb: frame counts"
