@@ -62,8 +62,8 @@ const char* const kUsage =
     "  --frames N     measured frames per animation, evenly spaced, ends included (default 9)\n"
     "  --fps F        rate at which animations are played between them (default 30)\n"
     "  --json         one JSON document on stdout instead of the table\n"
-    "  --markdown     one Markdown table on stdout instead: a row per pack (the files' folder)\n"
-    "                 and the total\n"
+    "  --markdown     one Markdown table instead (then --check's lines): a row per pack (the\n"
+    "                 files' folder) and the total\n"
     "  --check        exit 5 when an acceptance line breaks: a frame where skelform adds more\n"
     "                 pairs than LBS, skelform's summed pairs above 50 % of LBS's, a closed\n"
     "                 character whose mean |volume change| exceeds LBS's, a single-influence\n"
@@ -692,10 +692,11 @@ int run(const Arguments& args) {
   const bool failed = std::any_of(broken.begin(), broken.end(), [&](const Broken& b) { return !waived(b); });
   if (args.json) {
     std::printf("%s\n", report_json(results, broken).dump(1).c_str());
-  } else if (args.markdown) {
-    print_markdown(results);
   } else {
-    print_table(results);
+    if (args.markdown)
+      print_markdown(results);
+    else
+      print_table(results);
     if (args.check) {
       std::printf("\nacceptance: %s\n", broken.empty() ? "every line holds" : failed ? "broken" : "holds but for waived lines");
       for (const Broken& b : broken) std::printf("  %s%s\n", waived(b) ? "(waived) " : "", b.message.c_str());
