@@ -19,14 +19,7 @@ namespace {
 using skelform::test::Evaluated;
 using skelform::test::RuntimeModel;
 
-struct InstancePtr {
-  sf_instance* instance = nullptr;
-  explicit InstancePtr(const sf_asset* asset) { REQUIRE(sf_instance_create(asset, 0, &instance) == SF_OK); }
-  ~InstancePtr() { sf_instance_destroy(instance); }
-  InstancePtr(const InstancePtr&) = delete;
-  InstancePtr& operator=(const InstancePtr&) = delete;
-  operator sf_instance*() const { return instance; }
-};
+using skelform::test::InstancePtr;
 
 struct Variant {
   const char* name;

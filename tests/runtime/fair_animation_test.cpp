@@ -22,13 +22,7 @@ namespace {
 using skelform::bake::TriangleMesh;
 using skelform::bake::Vec3;
 
-struct Instance {
-  sf_instance* instance = nullptr;
-  explicit Instance(const sf_asset* asset) { REQUIRE(sf_instance_create(asset, 0, &instance) == SF_OK); }
-  ~Instance() { sf_instance_destroy(instance); }
-  Instance(const Instance&) = delete;
-  Instance& operator=(const Instance&) = delete;
-};
+using Instance = skelform::test::InstancePtr;
 
 // What check_animations() asserts: the per-frame intersection bound, or the mean volume change.
 enum class Property { intersections, volume };

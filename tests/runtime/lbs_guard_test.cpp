@@ -27,20 +27,16 @@ using skelform::test::RuntimeModel;
 
 constexpr double kPi = 3.14159265358979323846;
 
-struct Instance {
-  sf_instance* handle = nullptr;
-  explicit Instance(const sf_asset* asset) { REQUIRE(sf_instance_create(asset, 0, &handle) == SF_OK); }
-  ~Instance() { sf_instance_destroy(handle); }
-  Instance(const Instance&) = delete;
-  Instance& operator=(const Instance&) = delete;
+struct Instance : skelform::test::InstancePtr {
+  using InstancePtr::InstancePtr;
   skelform::test::Evaluated evaluate(const sf_asset* asset, const std::vector<glm::mat4>& pose, uint32_t method,
                                      uint32_t flags = 0) {
-    REQUIRE(sf_instance_set_joint_matrices(handle, &pose[0][0][0], pose.size(), 0) == SF_OK);
+    REQUIRE(sf_instance_set_joint_matrices(instance, &pose[0][0][0], pose.size(), 0) == SF_OK);
     sf_eval_options options{};
     options.method = method;
     options.flags = flags;
-    REQUIRE(sf_instance_evaluate(handle, &options) == SF_OK);
-    return skelform::test::write_all(handle, asset);
+    REQUIRE(sf_instance_evaluate(instance, &options) == SF_OK);
+    return skelform::test::write_all(instance, asset);
   }
 };
 

@@ -257,6 +257,16 @@ struct Evaluated {
   std::vector<glm::vec4> tangents;  // zero for primitives without tangents
 };
 
+// An instance of `asset` for one test, destroyed with it; converts to sf_instance*.
+struct InstancePtr {
+  sf_instance* instance = nullptr;
+  explicit InstancePtr(const sf_asset* asset) { REQUIRE(sf_instance_create(asset, 0, &instance) == SF_OK); }
+  ~InstancePtr() { sf_instance_destroy(instance); }
+  InstancePtr(const InstancePtr&) = delete;
+  InstancePtr& operator=(const InstancePtr&) = delete;
+  operator sf_instance*() const { return instance; }
+};
+
 inline Evaluated write_all(const sf_instance* instance, const sf_asset* asset) {
   Evaluated out;
   sf_deformable_info info{};
