@@ -202,8 +202,10 @@ std::string too_large(const std::string& path) {
   return path + ": larger than " + std::to_string(kMaxFileBytes >> 20) + " MiB, the most the sample tools read";
 }
 
+}  // namespace
+
 // In chunks up to kMaxFileBytes: a stream without an end is refused once it passes the limit.
-std::vector<unsigned char> read_file_bytes(const std::string& path) {
+std::vector<unsigned char> read_bounded_file(const std::string& path) {
   std::error_code error;
   if (std::filesystem::is_regular_file(path, error) && std::filesystem::file_size(path, error) > kMaxFileBytes && !error)
     throw GltfError(too_large(path));
@@ -220,8 +222,6 @@ std::vector<unsigned char> read_file_bytes(const std::string& path) {
   if (file.bad()) throw GltfError(path + ": read error");
   return bytes;
 }
-
-}  // namespace
 
 struct GltfAnimation::Impl {
   std::string name;
@@ -447,7 +447,7 @@ GltfAnimation& GltfAnimation::operator=(GltfAnimation&&) noexcept = default;
 GltfAnimation::~GltfAnimation() = default;
 
 GltfAnimation GltfAnimation::load_file(const std::string& path) {
-  const std::vector<unsigned char> bytes = read_file_bytes(path);
+  const std::vector<unsigned char> bytes = read_bounded_file(path);
   std::string base_dir = path;
   const size_t slash = base_dir.find_last_of('/');
   base_dir = slash == std::string::npos ? "." : base_dir.substr(0, slash);

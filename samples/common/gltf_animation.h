@@ -63,6 +63,10 @@ inline constexpr size_t kStaticPose = std::numeric_limits<size_t>::max();
 // it passes the limit, so no input makes a tool read until memory runs out.
 inline constexpr size_t kMaxFileBytes = size_t{1} << 30;
 
+// The bytes of the file at `path`, at most kMaxFileBytes (a FIFO or device is read until it
+// passes the limit). Throws GltfError naming the file when it cannot be read or is larger.
+std::vector<unsigned char> read_bounded_file(const std::string& path);
+
 // A loaded, validated glTF document. Immutable after loading; any number of threads may
 // sample it at once. Movable, not copyable.
 class GltfAnimation {

@@ -13,6 +13,7 @@
 #include "atomic_file.h"
 #include "cli.h"
 #include "gltf_animation.h"
+#include "handle_file.h"
 #include "skelform/bake/glb_builder.h"
 #include "skelform/skelform.h"
 
@@ -36,6 +37,8 @@
 namespace {
 
 using skelform::samples::GltfAnimation;
+using skelform::samples::HandleSet;
+using skelform::samples::read_handles;
 using skelform::samples::exit_code_of;
 using skelform::samples::fail;
 using skelform::samples::kExitInternal;
@@ -177,59 +180,6 @@ struct AssetHandle {
   sf_asset* asset = nullptr;
   ~AssetHandle() { sf_asset_destroy(asset); }
 };
-
-// The handle file (docs/handles-json.md).
-struct HandleSet {
-  std::vector<uint32_t> vertices;
-  std::vector<float> targets;  // x, y, z per handle
-  std::vector<uint32_t> pinned;
-};
-
-HandleSet read_handles(const std::string& path) {
-  std::ifstream file(path, std::ios::binary);
-  if (!file) fail(kExitIo, "cannot read " + path);
-  nlohmann::json doc;
-  try {
-    doc = nlohmann::json::parse(file);
-  } catch (const nlohmann::json::exception& e) {
-    fail(kExitInvalidInput, path + ": " + e.what());
-  }
-  auto index_of = [&](const nlohmann::json& value, const std::string& where) -> uint32_t {
-    if (!value.is_number_unsigned() || value.get<uint64_t>() > 0xffffffffULL)
-      fail(kExitInvalidInput, path + ": " + where + " must be a non-negative integer vertex index");
-    return value.get<uint32_t>();
-  };
-  if (!doc.is_object()) fail(kExitInvalidInput, path + ": expected a JSON object");
-  for (const auto& item : doc.items())
-    if (item.key() != "handles" && item.key() != "pinned")
-      fail(kExitInvalidInput, path + ": unknown member \"" + item.key() + "\"");
-  const auto handles = doc.find("handles");
-  if (handles == doc.end() || !handles->is_array() || handles->empty())
-    fail(kExitInvalidInput, path + ": \"handles\" must be a non-empty array");
-  HandleSet set;
-  for (size_t i = 0; i < handles->size(); ++i) {
-    const nlohmann::json& handle = (*handles)[i];
-    const std::string where = "handles[" + std::to_string(i) + "]";
-    if (!handle.is_object() || !handle.contains("vertex") || !handle.contains("target"))
-      fail(kExitInvalidInput, path + ": " + where + " must be an object with \"vertex\" and \"target\"");
-    set.vertices.push_back(index_of(handle["vertex"], where + ".vertex"));
-    const nlohmann::json& target = handle["target"];
-    if (!target.is_array() || target.size() != 3)
-      fail(kExitInvalidInput, path + ": " + where + ".target must be [x, y, z]");
-    for (const nlohmann::json& c : target) {
-      if (!c.is_number() || !std::isfinite(c.get<double>()) ||
-          std::fabs(c.get<double>()) > std::numeric_limits<float>::max())
-        fail(kExitInvalidInput, path + ": " + where + ".target must hold three finite numbers");
-      set.targets.push_back(c.get<float>());
-    }
-  }
-  if (const auto pinned = doc.find("pinned"); pinned != doc.end()) {
-    if (!pinned->is_array()) fail(kExitInvalidInput, path + ": \"pinned\" must be an array of vertex indices");
-    for (size_t i = 0; i < pinned->size(); ++i)
-      set.pinned.push_back(index_of((*pinned)[i], "pinned[" + std::to_string(i) + "]"));
-  }
-  return set;
-}
 
 // The posed dense mesh of the chosen deformables.
 struct PosedMesh {
