@@ -43,6 +43,7 @@ GuardWorkspace make_guard_workspace(const ContactMesh& mesh, const AllocatorRef&
   ws.changed.resize(mesh.vertex_count);
   ws.flagged_list.reserve(mesh.vertex_count);
   ws.ramp.resize(mesh.vertex_count);
+  ws.lowered.resize(mesh.vertex_count);
   ws.tested.resize(triangles);
   ws.test_list.reserve(triangles);
   ws.boxes.resize(6 * triangles);
@@ -67,8 +68,12 @@ glm::vec3 blended_position(const Deformable& d, const ContactMesh& mesh, const D
 // every pair LBS does not have, until none is left. Round one tests every triangle with a
 // moved corner; each later round only the triangles around the vertices the previous round
 // changed (a pair none of whose corners changed keeps its verdict).
+//
+// `only` (per welded vertex, or null): the current factors are known to add no pair except
+// where a vertex so marked moved since, so the first round tests only the triangles around
+// those (a pair none of whose corners moved keeps its verdict).
 void guard_intersections(const Deformable& d, const ContactMesh& mesh, const DenseOutput& skelform,
-                         const DenseOutput& lbs, GuardWorkspace& ws) {
+                         const DenseOutput& lbs, GuardWorkspace& ws, const uint8_t* only = nullptr) {
   const uint32_t* tri = mesh.triangles.data();
   const uint32_t* rep = mesh.representative.data();
   for (uint32_t v = 0; v < mesh.vertex_count; ++v) {
@@ -88,7 +93,8 @@ void guard_intersections(const Deformable& d, const ContactMesh& mesh, const Den
       reach[k] = std::min(reach[k], now[k]);
       reach[3 + k] = std::max(reach[3 + k], now[3 + k]);
     }
-    const bool moved = ws.moved[c[0]] || ws.moved[c[1]] || ws.moved[c[2]];
+    const bool moved = (ws.moved[c[0]] || ws.moved[c[1]] || ws.moved[c[2]]) &&
+                       (!only || only[c[0]] || only[c[1]] || only[c[2]]);
     ws.tested[t] = moved;
     if (moved) ws.test_list.push_back(t);
   }
@@ -183,6 +189,7 @@ bool ramp_factors(const ContactMesh& mesh, GuardWorkspace& ws) {
       const float limit = 0.5f * (1.0f + lowest);
       if (ws.factor[v] > limit) {
         ws.factor[v] = limit;
+        ws.lowered[v] = 1;
         changed = true;
       }
     }
@@ -261,7 +268,9 @@ void guard_and_blend(const Deformable& d, const ContactMesh& mesh, float scale, 
     // A smooth fallback: around every vertex the guard pulled towards LBS, the factor may rise
     // by at most half of what is left per ring, over kGuardRampRings rings; the lowered factors
     // are then checked again (a vertex between K and L is not safe by itself).
-    if (ramp_factors(mesh, ws)) guard_intersections(d, mesh, skelform, lbs, ws);
+    // Only the triangles around a lowered vertex can have a new pair: the rest is as checked.
+    if (ramp_factors(mesh, ws)) guard_intersections(d, mesh, skelform, lbs, ws, ws.lowered.data());
+    std::fill(ws.lowered.begin(), ws.lowered.end(), uint8_t{0});
     // Volume: a closed mesh keeps its rest volume, scaled by the pose's reference scale cubed,
     // no worse than LBS does; μ scales the whole guarded correction where it would not.
     if (mesh.closed && std::isfinite(mesh.rest_volume) && mesh.rest_volume != 0.0) {

@@ -55,7 +55,7 @@ struct GuardWorkspace {
       : factor(CallbackAllocator<float>(a)), positions(CallbackAllocator<glm::vec3>(a)),
         moved(CallbackAllocator<uint8_t>(a)), flagged(CallbackAllocator<uint8_t>(a)),
         changed(CallbackAllocator<uint8_t>(a)), flagged_list(CallbackAllocator<uint32_t>(a)),
-        ramp(CallbackAllocator<float>(a)),
+        ramp(CallbackAllocator<float>(a)), lowered(CallbackAllocator<uint8_t>(a)),
         tested(CallbackAllocator<uint8_t>(a)),
         test_list(CallbackAllocator<uint32_t>(a)), boxes(CallbackAllocator<float>(a)),
         reach_boxes(CallbackAllocator<float>(a)), node_boxes(CallbackAllocator<float>(a)),
@@ -67,6 +67,7 @@ struct GuardWorkspace {
   Array<uint8_t> changed;        // per welded vertex: its λ changed this round
   Array<uint32_t> flagged_list;  // the vertices flagged this round
   Array<float> ramp;             // λ before a ramp pass
+  Array<uint8_t> lowered;        // per welded vertex: the ramp lowered its λ (then cleared)
   Array<uint8_t> tested;         // per triangle: in this round's list
   Array<uint32_t> test_list;     // the triangles this round tests
   Array<float> boxes;            // per triangle: its box at x (lo xyz, hi xyz)
