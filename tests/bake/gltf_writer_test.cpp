@@ -198,7 +198,11 @@ void check_extension(const GltfFile& output, const std::vector<BakedDeformable>&
 // Everything the input had is still there, JSON-equal, at the same index; buffer 0's
 // original bytes are a prefix of the output's.
 void check_original_kept(const GltfFile& input, const GltfFile& output) {
-  for (const auto& [key, value] : input.document.items()) {
+  // Not structured bindings: doctest's macros capture in lambdas, which clang 14 refuses for
+  // bindings (a C++20 feature).
+  for (const auto& item : input.document.items()) {
+    const std::string key = item.key();
+    const Json& value = item.value();
     INFO("member " << key);
     REQUIRE(output.document.contains(key));
     if (key == "accessors" || key == "bufferViews") {
@@ -567,7 +571,9 @@ TEST_CASE("gltf_writer: malformed input is refused with invalid_input, never a c
   bad_version[4] = 1;
   inputs.emplace_back("glb-version-1.glb", bad_version);
 
-  for (const auto& [name, bytes] : inputs) {
+  for (const auto& input : inputs) {
+    const std::string& name = input.first;
+    const std::string& bytes = input.second;
     INFO(name);
     write_bytes(dir / name, bytes);
     const fs::path out = dir / ("out-" + name + ".glb");
@@ -608,7 +614,9 @@ TEST_CASE("gltf_writer: the JSON schema is valid JSON and the written extension 
       REQUIRE(value.is_object());
       for (const Json& key : resolved->value("required", Json::array())) CHECK_MESSAGE(value.contains(key.get<std::string>()), key);
       const Json properties = resolved->value("properties", Json::object());
-      for (const auto& [key, member] : value.items()) {
+      for (const auto& item : value.items()) {
+        const std::string key = item.key();
+        const Json& member = item.value();
         CHECK_MESSAGE(properties.contains(key), "member not in the schema: " << where << "." << key);
         if (properties.contains(key)) check_object(properties[key], member, where + "." + key);
       }

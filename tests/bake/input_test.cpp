@@ -390,7 +390,10 @@ TEST_CASE("input: SimpleSkin.gltf with data-URI buffers has 10 vertices and 8 tr
 
 TEST_CASE("input: a generated skinned glTF loads the same as .gltf (data URI) and .glb") {
   const GltfParts parts;
-  for (const auto& [bytes, ext] : {std::pair{parts.gltf(), std::string(".gltf")}, std::pair{parts.glb(), std::string(".glb")}}) {
+  // Not structured bindings: doctest's macros capture in lambdas (clang 14 refuses bindings).
+  for (const auto& input : {std::pair{parts.gltf(), std::string(".gltf")}, std::pair{parts.glb(), std::string(".glb")}}) {
+    const std::vector<unsigned char>& bytes = input.first;
+    const std::string& ext = input.second;
     CAPTURE(ext);
     const InputMesh mesh = load_mesh_from_memory(bytes, ext, "generated" + ext);
     REQUIRE(mesh.positions.size() == 4);
@@ -885,9 +888,11 @@ TEST_CASE("input: gltf_access reads interleaved joints, normalized weights and m
 }
 
 TEST_CASE("input: skin influences of every skinned model are read, in range and normalised") {
-  for (const auto& [name, joint_count] : std::vector<std::pair<const char*, size_t>>{
+  for (const auto& model : std::vector<std::pair<const char*, size_t>>{
            {"CesiumMan/CesiumMan.glb", 19}, {"Fox/Fox.glb", 24}, {"RiggedFigure/RiggedFigure.glb", 19},
            {"RiggedSimple/RiggedSimple.glb", 2}, {"SimpleSkin/SimpleSkin.gltf", 2}}) {
+    const char* name = model.first;
+    const size_t joint_count = model.second;
     SKELFORM_REQUIRE_DATA(path, name);
     CAPTURE(name);
     const InputMesh mesh = load_mesh(path.string());

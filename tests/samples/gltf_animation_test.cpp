@@ -130,7 +130,8 @@ TEST_CASE("external URIs are taken literally: no shell expansion of $(...) or ~"
 
 TEST_CASE("LINEAR rotation: 0 to 90 degrees about z sampled at the midpoint gives 45 degrees (slerp)") {
   GltfBuilder builder;
-  builder.doc["nodes"] = {json::object()};
+  // json::array({x}), not {x}: with one element, clang takes the braces for x itself.
+  builder.doc["nodes"] = json::array({json::object()});
   builder.doc["skins"] = {{{"joints", {0}}}};
   builder.animate(0, "rotation", "LINEAR", {0.0f, 1.0f}, concat({quat_z(0), quat_z(90)}));
   const GltfAnimation gltf = builder.load();
@@ -154,7 +155,7 @@ TEST_CASE("LINEAR rotation: 0 to 90 degrees about z sampled at the midpoint give
 
 TEST_CASE("LINEAR rotation takes the shorter arc between q and -q neighbours") {
   GltfBuilder builder;
-  builder.doc["nodes"] = {json::object()};
+  builder.doc["nodes"] = json::array({json::object()});
   std::vector<float> end = quat_z(90);
   for (float& c : end) c = -c;  // the same rotation, opposite hemisphere
   builder.animate(0, "rotation", "LINEAR", {0.0f, 1.0f}, concat({quat_z(0), end}));
@@ -164,7 +165,7 @@ TEST_CASE("LINEAR rotation takes the shorter arc between q and -q neighbours") {
 
 TEST_CASE("LINEAR translation interpolates component-wise") {
   GltfBuilder builder;
-  builder.doc["nodes"] = {json::object()};
+  builder.doc["nodes"] = json::array({json::object()});
   builder.animate(0, "translation", "LINEAR", {1.0f, 3.0f}, {0, 0, 0, 2, -4, 6});
   const GltfAnimation gltf = builder.load();
   CHECK(gltf.animations()[0].start == 1.0);
@@ -177,7 +178,7 @@ TEST_CASE("LINEAR translation interpolates component-wise") {
 
 TEST_CASE("STEP holds each keyframe until the next one") {
   GltfBuilder builder;
-  builder.doc["nodes"] = {json::object()};
+  builder.doc["nodes"] = json::array({json::object()});
   builder.animate(0, "translation", "STEP", {0.0f, 1.0f, 2.0f}, {0, 0, 0, 1, 0, 0, 2, 0, 0});
   const GltfAnimation gltf = builder.load();
   CHECK(near(gltf.node_world_matrices(0, 0.0)[12], 0.0));
@@ -191,7 +192,7 @@ TEST_CASE("STEP holds each keyframe until the next one") {
 TEST_CASE("a repeated key time, as exporters write at the end of a clip, is a jump at that instant") {
   // glTF asks for strictly increasing times; files in the wild repeat the last one.
   GltfBuilder builder;
-  builder.doc["nodes"] = {json::object()};
+  builder.doc["nodes"] = json::array({json::object()});
   builder.animate(0, "translation", "LINEAR", {0.0f, 1.0f, 1.0f}, {0, 0, 0, 2, 0, 0, 5, 0, 0});
   const GltfAnimation gltf = builder.load();
   CHECK(near(gltf.node_world_matrices(0, 0.5)[12], 1.0));
@@ -203,7 +204,7 @@ TEST_CASE("a repeated key time, as exporters write at the end of a clip, is a ju
 
 TEST_CASE("CUBICSPLINE with zero tangents is the Hermite smoothstep 3s^2 - 2s^3") {
   GltfBuilder builder;
-  builder.doc["nodes"] = {json::object()};
+  builder.doc["nodes"] = json::array({json::object()});
   // Per keyframe: in-tangent, value, out-tangent.
   builder.animate(0, "translation", "CUBICSPLINE", {0.0f, 2.0f}, {0, 0, 0, 0, 0, 0, 0, 0, 0,  //
                                                                   0, 0, 0, 1, 1, 1, 0, 0, 0});
@@ -216,7 +217,7 @@ TEST_CASE("CUBICSPLINE with zero tangents is the Hermite smoothstep 3s^2 - 2s^3"
 
 TEST_CASE("CUBICSPLINE tangents are scaled by the keyframe interval: unit slopes reproduce a line") {
   GltfBuilder builder;
-  builder.doc["nodes"] = {json::object()};
+  builder.doc["nodes"] = json::array({json::object()});
   // x(t) = t on [0, 2]: values 0 and 2, tangents dx/dt = 1 (per second, as glTF stores them).
   builder.animate(0, "translation", "CUBICSPLINE", {0.0f, 2.0f}, {1, 0, 0, 0, 0, 0, 1, 0, 0,  //
                                                                   1, 0, 0, 2, 0, 0, 1, 0, 0});
@@ -226,7 +227,7 @@ TEST_CASE("CUBICSPLINE tangents are scaled by the keyframe interval: unit slopes
 
 TEST_CASE("CUBICSPLINE rotation is normalised") {
   GltfBuilder builder;
-  builder.doc["nodes"] = {json::object()};
+  builder.doc["nodes"] = json::array({json::object()});
   const std::vector<float> zero(4, 0.0f);
   builder.animate(0, "rotation", "CUBICSPLINE", {0.0f, 1.0f}, concat({zero, quat_z(0), zero, zero, quat_z(90), zero}));
   const GltfAnimation gltf = builder.load();
