@@ -12,9 +12,9 @@
 #   ./run.sh test            install missing packages, build, run the whole test suite,
 #                            then again under AddressSanitizer + UndefinedBehaviorSanitizer,
 #                            and the multi-threaded instance test under ThreadSanitizer
-#                            (with the web viewer's browser test in headless chromium), the
-#                            rest-pose tests in a -march=native build, then each libFuzzer
-#                            target (tests/fuzz) for 60 s (clang-14)
+#                            (with the web viewer's browser test in headless chromium), again
+#                            built by clang as a shared library for the machine's own ISA
+#                            (-march=native), then each libFuzzer target (tests/fuzz) for 60 s
 #   ./run.sh viewer FILE.glb...  serve the web viewer for skelform-animate files on 127.0.0.1
 #                            and print the URL to open (installs three.js from npm once)
 #   ./run.sh quality [ARGS]  skelform against LBS over the whole corpus (the Quaternius characters
@@ -94,21 +94,22 @@ run_tests() {
         -DSKELFORM_BUILD_BENCH=OFF -DSKELFORM_BUILD_SAMPLES=OFF --target skelform_tests
   echo "==> thread test (ThreadSanitizer)"
   TSAN_OPTIONS=halt_on_error=1 ctest --test-dir "$root/build-tsan" --output-on-failure -R 'runtime/threads_test'
-  # The rest pose to the baker's bits in a build for this machine's own ISA (FMA wherever the
-  # CPU has it): cmake/SkelformTargets.cmake turns floating-point contraction off for that.
-  # Warnings are not errors here: GCC 12 warns inside Eigen's AVX-512 code (maybe-uninitialized).
-  build "$root/build-native" -DCMAKE_BUILD_TYPE=Release -DCMAKE_CXX_FLAGS=-march=native \
-        -DSKELFORM_WARNINGS_AS_ERRORS=OFF -DSKELFORM_BUILD_BENCH=OFF -DSKELFORM_BUILD_SAMPLES=OFF --target skelform_tests
-  echo "==> rest pose tests (-march=native)"
-  "$root/build-native/tests/skelform_tests" -tc="*rest*,*baker's bits*"
+  # What users build too: clang, libskelform as a shared library (the C API exported,
+  # everything else hidden), and code for this machine's own ISA (FMA wherever the CPU has
+  # it; the rest pose still matches the baker's bits because cmake/SkelformTargets.cmake turns
+  # floating-point contraction off): the whole suite once more.
+  local clang_missing=() p
+  for p in clang-14 libclang-rt-14-dev; do
+    dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || clang_missing+=("$p")
+  done
+  [ ${#clang_missing[@]} -eq 0 ] || apt_install "${clang_missing[@]}"
+  CC=clang-14 CXX=clang++-14 build "$root/build-clang" -DCMAKE_BUILD_TYPE=Release -DBUILD_SHARED_LIBS=ON \
+        -DCMAKE_C_FLAGS=-march=native -DCMAKE_CXX_FLAGS=-march=native -DSKELFORM_BUILD_BENCH=OFF
+  echo "==> tests (clang, shared library, -march=native)"
+  ctest --test-dir "$root/build-clang" --output-on-failure -j "$jobs" -E 'samples/viewer'
   # libFuzzer (clang, ASan + UBSan) on the asset loader, the baker's readers and the handle
   # files, each for SKELFORM_FUZZ_SECONDS (default 60) from seeds made from the data dir and
   # the procedural character; any finding fails (tests/fuzz/run.sh).
-  local fuzz_missing=() p
-  for p in clang-14 libclang-rt-14-dev; do
-    dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || fuzz_missing+=("$p")
-  done
-  [ ${#fuzz_missing[@]} -eq 0 ] || apt_install "${fuzz_missing[@]}"
   echo "==> fuzzing"
   "$root/tests/fuzz/run.sh" "${SKELFORM_FUZZ_SECONDS:-60}"
 }
