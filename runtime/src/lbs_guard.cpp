@@ -269,8 +269,10 @@ void guard_and_blend(const Deformable& d, const ContactMesh& mesh, float scale, 
     // by at most half of what is left per ring, over kGuardRampRings rings; the lowered factors
     // are then checked again (a vertex between K and L is not safe by itself).
     // Only the triangles around a lowered vertex can have a new pair: the rest is as checked.
-    if (ramp_factors(mesh, ws)) guard_intersections(d, mesh, skelform, lbs, ws, ws.lowered.data());
-    std::fill(ws.lowered.begin(), ws.lowered.end(), uint8_t{0});
+    if (ramp_factors(mesh, ws)) {
+      guard_intersections(d, mesh, skelform, lbs, ws, ws.lowered.data());
+      std::fill(ws.lowered.begin(), ws.lowered.end(), uint8_t{0});  // only a ramp sets them
+    }
     // Volume: a closed mesh keeps its rest volume, scaled by the pose's reference scale cubed,
     // no worse than LBS does; μ scales the whole guarded correction where it would not.
     if (mesh.closed && std::isfinite(mesh.rest_volume) && mesh.rest_volume != 0.0) {
