@@ -440,29 +440,31 @@ ContactMesh build_contact_mesh(const glm::vec3* rest_positions, uint32_t vertex_
   for (uint32_t v = 0; v < mesh.vertex_count; ++v) welded_rest[v] = rest_positions[mesh.representative[v]];
   mesh.hierarchy = build_triangle_hierarchy(welded_rest.data(), mesh.triangles.data(), mesh.triangle_count, allocator);
   // The pairs that intersect at rest, by the exact test, through the hierarchy.
-  Array<float> boxes{CallbackAllocator<float>(allocator)}, node_boxes{CallbackAllocator<float>(allocator)};
+  Array<float> node_boxes{CallbackAllocator<float>(allocator)};
   Array<uint8_t> wanted{CallbackAllocator<uint8_t>(allocator)}, node_wanted{CallbackAllocator<uint8_t>(allocator)};
-  boxes.resize(6 * size_t(mesh.triangle_count));
+  Array<uint32_t> leaf_wanted{CallbackAllocator<uint32_t>(allocator)};
+  SlotBoxes boxes(allocator);
   node_boxes.resize(6 * mesh.hierarchy.nodes.size());
   wanted.assign(mesh.triangle_count, 1);
   node_wanted.resize(mesh.hierarchy.nodes.size());
+  leaf_wanted.resize(mesh.hierarchy.nodes.size());
+  boxes.resize(mesh.hierarchy);
   const uint32_t* tri = mesh.triangles.data();
   for (uint32_t t = 0; t < mesh.triangle_count; ++t) {
     const glm::vec3 &a = welded_rest[tri[3 * size_t(t)]], &b = welded_rest[tri[3 * size_t(t) + 1]],
                     &c = welded_rest[tri[3 * size_t(t) + 2]];
+    float box[6];
     for (int k = 0; k < 3; ++k) {
-      boxes[6 * size_t(t) + size_t(k)] = std::min({a[k], b[k], c[k]});
-      boxes[6 * size_t(t) + 3 + size_t(k)] = std::max({a[k], b[k], c[k]});
+      box[k] = std::min({a[k], b[k], c[k]});
+      box[3 + k] = std::max({a[k], b[k], c[k]});
     }
+    boxes.set(mesh.hierarchy.slot[t], box);
   }
-  refit_triangle_hierarchy(mesh.hierarchy, boxes.data(), node_boxes.data());
-  self_pairs_triangle_hierarchy(mesh.hierarchy, node_boxes.data(), boxes.data(), wanted.data(), node_wanted.data(),
-                                [&](uint32_t s, uint32_t t) {
+  refit_triangle_hierarchy(mesh.hierarchy, boxes, node_boxes.data());
+  self_pairs_triangle_hierarchy(mesh.hierarchy, node_boxes.data(), boxes, wanted.data(), node_wanted.data(),
+                                leaf_wanted.data(), [&](uint32_t s, uint32_t t) {
                                   const uint32_t* p = tri + 3 * size_t(s);
                                   const uint32_t* q = tri + 3 * size_t(t);
-                                  for (int i = 0; i < 3; ++i)
-                                    for (int j = 0; j < 3; ++j)
-                                      if (p[i] == q[j]) return;
                                   auto at = [&](uint32_t v) { return glm::dvec3(welded_rest[v]); };
                                   if (geometry::triangles_intersect(at(p[0]), at(p[1]), at(p[2]), at(q[0]), at(q[1]), at(q[2])))
                                     mesh.rest_pairs.push_back(uint64_t(std::min(s, t)) << 32 | std::max(s, t));

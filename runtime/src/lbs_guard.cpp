@@ -46,10 +46,11 @@ GuardWorkspace make_guard_workspace(const ContactMesh& mesh, const AllocatorRef&
   ws.lowered.resize(mesh.vertex_count);
   ws.tested.resize(triangles);
   ws.test_list.reserve(triangles);
-  ws.boxes.resize(6 * triangles);
-  ws.reach_boxes.resize(6 * triangles);
+  ws.boxes.resize(mesh.hierarchy);
+  ws.reach_boxes.resize(mesh.hierarchy);
   ws.node_boxes.resize(6 * mesh.hierarchy.nodes.size());
   ws.node_flags.resize(mesh.hierarchy.nodes.size());
+  ws.leaf_flags.resize(mesh.hierarchy.nodes.size());
   return ws;
 }
 
@@ -76,44 +77,42 @@ void guard_intersections(const Deformable& d, const ContactMesh& mesh, const Den
                          const DenseOutput& lbs, GuardWorkspace& ws, const uint8_t* only = nullptr) {
   const uint32_t* tri = mesh.triangles.data();
   const uint32_t* rep = mesh.representative.data();
+  const TriangleHierarchy& h = mesh.hierarchy;
+  bool finite = true;
   for (uint32_t v = 0; v < mesh.vertex_count; ++v) {
+    const glm::vec3 l = lbs.positions[rep[v]];
     ws.positions[v] = blended_position(d, mesh, skelform, lbs, ws, v);
-    ws.moved[v] = ws.positions[v] != lbs.positions[rep[v]];
+    ws.moved[v] = ws.positions[v] != l;
+    finite &= std::isfinite(l.x + l.y + l.z + ws.positions[v].x + ws.positions[v].y + ws.positions[v].z);
   }
-  // Boxes now and over every round (the corners only travel towards L), and the first round's
-  // triangles: those with a moved corner.
+  if (!finite) {
+    std::fill(ws.factor.begin(), ws.factor.end(), 0.0f);  // a non-finite position: LBS
+    return;
+  }
+  // Boxes at x, slot by slot, and the first round's triangles: those with a moved corner.
   ws.test_list.clear();
-  for (uint32_t t = 0; t < mesh.triangle_count; ++t) {
+  for (uint32_t i = 0; i < mesh.triangle_count; ++i) {
+    const uint32_t t = h.order[i];
     const uint32_t* c = tri + 3 * size_t(t);
-    float* now = ws.boxes.data() + 6 * size_t(t);
-    float* reach = ws.reach_boxes.data() + 6 * size_t(t);
-    triangle_box(ws.positions[c[0]], ws.positions[c[1]], ws.positions[c[2]], now);
-    triangle_box(lbs.positions[rep[c[0]]], lbs.positions[rep[c[1]]], lbs.positions[rep[c[2]]], reach);
-    for (int k = 0; k < 3; ++k) {
-      reach[k] = std::min(reach[k], now[k]);
-      reach[3 + k] = std::max(reach[3 + k], now[3 + k]);
-    }
+    float box[6];
+    triangle_box(ws.positions[c[0]], ws.positions[c[1]], ws.positions[c[2]], box);
+    ws.boxes.set(i, box);
     const bool moved = (ws.moved[c[0]] || ws.moved[c[1]] || ws.moved[c[2]]) &&
                        (!only || only[c[0]] || only[c[1]] || only[c[2]]);
     ws.tested[t] = moved;
     if (moved) ws.test_list.push_back(t);
   }
   if (ws.test_list.empty()) return;
-  for (float b : ws.reach_boxes)
-    if (!std::isfinite(b)) {
-      std::fill(ws.factor.begin(), ws.factor.end(), 0.0f);  // a non-finite position: LBS
-      return;
-    }
-  // Round one on the tight boxes at x; later rounds (corners moving towards L) on the reach.
-  refit_triangle_hierarchy(mesh.hierarchy, ws.boxes.data(), ws.node_boxes.data());
+  // Round one on the tight boxes at x; later rounds on the reach (below).
+  refit_triangle_hierarchy(h, ws.boxes, ws.node_boxes.data());
   for (uint32_t round = 0; !ws.test_list.empty(); ++round) {
     ws.flagged_list.clear();
     bool added = false;
-    // A pair whose boxes meet now, not adjacent, intersecting at x and not at L.
-    auto check = [&](uint32_t t, uint32_t s) {
+    // A pair of triangles whose boxes meet now and that share no corner: intersecting at x
+    // and not at L?
+    auto check_exact = [&](uint32_t t, uint32_t s) {
       const uint32_t* ct = tri + 3 * size_t(t);
       const uint32_t* cs = tri + 3 * size_t(s);
-      if (share_corner(ct, cs) || !boxes_meet(ws.boxes.data() + 6 * size_t(t), ws.boxes.data() + 6 * size_t(s))) return;
       if (!geometry::triangles_intersect(widen(ws.positions[ct[0]]), widen(ws.positions[ct[1]]),
                                          widen(ws.positions[ct[2]]), widen(ws.positions[cs[0]]),
                                          widen(ws.positions[cs[1]]), widen(ws.positions[cs[2]])))
@@ -129,15 +128,38 @@ void guard_intersections(const Deformable& d, const ContactMesh& mesh, const Den
         }
       added = true;
     };
+    auto check = [&](uint32_t t, uint32_t s) {
+      float bt[6], bs[6];
+      ws.boxes.get(h.slot[t], bt);
+      ws.boxes.get(h.slot[s], bs);
+      if (share_corner(tri + 3 * size_t(t), tri + 3 * size_t(s)) || !boxes_meet(bt, bs)) return;
+      check_exact(t, s);
+    };
     if (round == 0) {
       // Every pair with a moved triangle: the hierarchy against itself.
-      self_pairs_triangle_hierarchy(mesh.hierarchy, ws.node_boxes.data(), ws.boxes.data(), ws.tested.data(),
-                                    ws.node_flags.data(), check);
+      self_pairs_triangle_hierarchy(h, ws.node_boxes.data(), ws.boxes, ws.tested.data(), ws.node_flags.data(),
+                                    ws.leaf_flags.data(), check_exact);
     } else {
-      if (round == 1) refit_triangle_hierarchy(mesh.hierarchy, ws.reach_boxes.data(), ws.node_boxes.data());
+      if (round == 1) {
+        // From here on the corners only travel towards L: each triangle's reach is its box at
+        // x now and at L.
+        for (uint32_t i = 0; i < mesh.triangle_count; ++i) {
+          const uint32_t* c = tri + 3 * size_t(h.order[i]);
+          float box[6], at_l[6];
+          ws.boxes.get(i, box);
+          triangle_box(lbs.positions[rep[c[0]]], lbs.positions[rep[c[1]]], lbs.positions[rep[c[2]]], at_l);
+          for (int k = 0; k < 3; ++k) {
+            box[k] = std::min(box[k], at_l[k]);
+            box[3 + k] = std::max(box[3 + k], at_l[3 + k]);
+          }
+          ws.reach_boxes.set(i, box);
+        }
+        refit_triangle_hierarchy(h, ws.reach_boxes, ws.node_boxes.data());
+      }
       for (uint32_t t : ws.test_list) {
-        const float* bt = ws.boxes.data() + 6 * size_t(t);
-        query_triangle_hierarchy(mesh.hierarchy, ws.node_boxes.data(), ws.reach_boxes.data(), bt, [&](uint32_t s) {
+        float bt[6];
+        ws.boxes.get(h.slot[t], bt);
+        query_triangle_hierarchy(h, ws.node_boxes.data(), ws.reach_boxes, bt, [&](uint32_t s) {
           // Each pair once: two triangles of this round's list meet when the larger queries.
           if (s == t || (ws.tested[s] && s > t)) return;
           check(t, s);
@@ -167,7 +189,9 @@ void guard_intersections(const Deformable& d, const ContactMesh& mesh, const Den
         ws.tested[t] = 1;
         ws.test_list.push_back(t);
         const uint32_t* c = tri + 3 * size_t(t);
-        triangle_box(ws.positions[c[0]], ws.positions[c[1]], ws.positions[c[2]], ws.boxes.data() + 6 * size_t(t));
+        float box[6];
+        triangle_box(ws.positions[c[0]], ws.positions[c[1]], ws.positions[c[2]], box);
+        ws.boxes.set(h.slot[t], box);
       }
     }
   }

@@ -34,6 +34,7 @@
 
 #include "contact.h"
 #include "memory.h"
+#include "triangle_bvh.h"
 
 #include <glm/vec3.hpp>
 #include <glm/vec4.hpp>
@@ -57,9 +58,8 @@ struct GuardWorkspace {
         changed(CallbackAllocator<uint8_t>(a)), flagged_list(CallbackAllocator<uint32_t>(a)),
         ramp(CallbackAllocator<float>(a)), lowered(CallbackAllocator<uint8_t>(a)),
         tested(CallbackAllocator<uint8_t>(a)),
-        test_list(CallbackAllocator<uint32_t>(a)), boxes(CallbackAllocator<float>(a)),
-        reach_boxes(CallbackAllocator<float>(a)), node_boxes(CallbackAllocator<float>(a)),
-        node_flags(CallbackAllocator<uint8_t>(a)) {}
+        test_list(CallbackAllocator<uint32_t>(a)), boxes(a), reach_boxes(a), node_boxes(CallbackAllocator<float>(a)),
+        node_flags(CallbackAllocator<uint8_t>(a)), leaf_flags(CallbackAllocator<uint32_t>(a)) {}
   Array<float> factor;           // λ per welded vertex
   Array<glm::vec3> positions;    // x per welded vertex
   Array<uint8_t> moved;          // per welded vertex: x differs from L
@@ -70,10 +70,11 @@ struct GuardWorkspace {
   Array<uint8_t> lowered;        // per welded vertex: the ramp lowered its λ (then cleared)
   Array<uint8_t> tested;         // per triangle: in this round's list
   Array<uint32_t> test_list;     // the triangles this round tests
-  Array<float> boxes;            // per triangle: its box at x (lo xyz, hi xyz)
-  Array<float> reach_boxes;      // per triangle: its box over every round (x and L)
-  Array<float> node_boxes;       // ContactMesh::hierarchy refitted to reach_boxes
+  SlotBoxes boxes;               // per triangle (by hierarchy slot): its box at x
+  SlotBoxes reach_boxes;         // per triangle (by slot): its box over the later rounds (x and L)
+  Array<float> node_boxes;       // ContactMesh::hierarchy refitted to boxes, then reach_boxes
   Array<uint8_t> node_flags;     // per node: it holds a triangle of the first round
+  Array<uint32_t> leaf_flags;    // per leaf node: its lanes holding one
   uint32_t rounds = 0;           // of the last evaluation
   uint32_t corrected = 0;        // welded vertices with λ < 1 after the last evaluation
   float volume_share = 1.0f;     // μ of the last evaluation

@@ -1,0 +1,138 @@
+// The triangle hierarchy's self-pair search (runtime/src/triangle_bvh.h) against a brute-force
+// loop over every pair: the same set of pairs (distinct, sharing no corner, boxes meeting, at
+// least one wanted), each once, on a deformed grid folded onto itself and on a random soup
+// whose leaves end part-full, with and without wanted flags.
+#include "triangle_bvh.h"
+
+#include <doctest/doctest.h>
+#include <glm/vec3.hpp>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+#include <random>
+#include <set>
+#include <utility>
+#include <vector>
+
+using skelform::runtime::AllocatorRef;
+using skelform::runtime::Array;
+using skelform::runtime::build_triangle_hierarchy;
+using skelform::runtime::CallbackAllocator;
+using skelform::runtime::refit_triangle_hierarchy;
+using skelform::runtime::self_pairs_triangle_hierarchy;
+using skelform::runtime::SlotBoxes;
+
+namespace {
+
+using PairSet = std::set<std::pair<uint32_t, uint32_t>>;
+
+void boxes_of(const std::vector<glm::vec3>& p, const std::vector<uint32_t>& tri, std::vector<float>& boxes) {
+  const size_t n = tri.size() / 3;
+  boxes.resize(6 * n);
+  for (size_t t = 0; t < n; ++t)
+    for (int k = 0; k < 3; ++k) {
+      const float a = p[tri[3 * t]][k], b = p[tri[3 * t + 1]][k], c = p[tri[3 * t + 2]][k];
+      boxes[6 * t + size_t(k)] = std::min({a, b, c});
+      boxes[6 * t + 3 + size_t(k)] = std::max({a, b, c});
+    }
+}
+
+PairSet brute_force(const std::vector<uint32_t>& tri, const std::vector<float>& boxes, const std::vector<uint8_t>& wanted) {
+  PairSet pairs;
+  const size_t n = tri.size() / 3;
+  for (size_t s = 0; s < n; ++s)
+    for (size_t t = s + 1; t < n; ++t) {
+      if (!wanted[s] && !wanted[t]) continue;
+      bool shared = false;
+      for (int i = 0; i < 3; ++i)
+        for (int j = 0; j < 3; ++j) shared |= tri[3 * s + size_t(i)] == tri[3 * t + size_t(j)];
+      const float* a = &boxes[6 * s];
+      const float* b = &boxes[6 * t];
+      const bool meet = a[0] <= b[3] && b[0] <= a[3] && a[1] <= b[4] && b[1] <= a[4] && a[2] <= b[5] && b[2] <= a[5];
+      if (!shared && meet) pairs.insert({uint32_t(s), uint32_t(t)});
+    }
+  return pairs;
+}
+
+// The hierarchy is built at `rest`, searched at `now` (as the guard does: rest shape, posed boxes).
+void check_search(const std::vector<glm::vec3>& rest, const std::vector<glm::vec3>& now,
+                  const std::vector<uint32_t>& tri, const std::vector<uint8_t>& wanted) {
+  const AllocatorRef allocator{};
+  const uint32_t n = uint32_t(tri.size() / 3);
+  const auto h = build_triangle_hierarchy(rest.data(), tri.data(), n, allocator);
+  std::vector<float> boxes;
+  boxes_of(now, tri, boxes);
+  SlotBoxes slot_boxes(allocator);
+  slot_boxes.resize(h);
+  for (uint32_t t = 0; t < n; ++t) slot_boxes.set(h.slot[t], &boxes[6 * size_t(t)]);
+  std::vector<float> node_boxes(6 * h.nodes.size());
+  refit_triangle_hierarchy(h, slot_boxes, node_boxes.data());
+  std::vector<uint8_t> node_wanted(h.nodes.size());
+  std::vector<uint32_t> leaf_wanted(h.nodes.size());
+  PairSet found;
+  size_t visits = 0;
+  self_pairs_triangle_hierarchy(h, node_boxes.data(), slot_boxes, wanted.data(), node_wanted.data(), leaf_wanted.data(),
+                                [&](uint32_t s, uint32_t t) {
+                                  ++visits;
+                                  found.insert({std::min(s, t), std::max(s, t)});
+                                });
+  const PairSet expected = brute_force(tri, boxes, wanted);
+  CHECK(visits == found.size());  // each pair once
+  CHECK(found == expected);
+  CHECK(!expected.empty());  // the scene has pairs to find
+}
+
+// A (k+1)² grid in the plane z = 0, two triangles per cell, rolled up around the x axis by
+// `turns` (more than one turn lays the sheet onto itself, so far-apart triangles meet).
+void grid(uint32_t k, float turns, std::vector<glm::vec3>& rest, std::vector<glm::vec3>& now, std::vector<uint32_t>& tri) {
+  for (uint32_t j = 0; j <= k; ++j)
+    for (uint32_t i = 0; i <= k; ++i) {
+      const float x = float(i) / float(k), y = float(j) / float(k);
+      rest.emplace_back(x, y, 0.0f);
+      const float angle = 6.2831853f * turns * y, radius = 0.15f;
+      now.emplace_back(x, radius * std::sin(angle), radius * (1.0f - std::cos(angle)));
+    }
+  for (uint32_t j = 0; j < k; ++j)
+    for (uint32_t i = 0; i < k; ++i) {
+      const uint32_t a = j * (k + 1) + i, b = a + 1, c = a + k + 1, d = c + 1;
+      tri.insert(tri.end(), {a, b, d, a, d, c});
+    }
+}
+
+}  // namespace
+
+TEST_CASE("triangle hierarchy: the self-pair search finds what a brute-force loop finds") {
+  SUBCASE("a sheet rolled onto itself, every triangle wanted") {
+    std::vector<glm::vec3> rest, now;
+    std::vector<uint32_t> tri;
+    grid(23, 1.3f, rest, now, tri);  // 1,058 triangles: leaves end part-full
+    check_search(rest, now, tri, std::vector<uint8_t>(tri.size() / 3, 1));
+  }
+  SUBCASE("the same sheet, a random third wanted") {
+    std::vector<glm::vec3> rest, now;
+    std::vector<uint32_t> tri;
+    grid(23, 1.3f, rest, now, tri);
+    std::mt19937 random(7);
+    std::vector<uint8_t> wanted(tri.size() / 3);
+    for (uint8_t& w : wanted) w = random() % 3 == 0 ? 1 : 0;
+    check_search(rest, now, tri, wanted);
+  }
+  SUBCASE("a random soup of 301 triangles, some sharing corners") {
+    std::mt19937 random(11);
+    std::uniform_real_distribution<float> unit(0.0f, 1.0f);
+    std::vector<glm::vec3> rest;
+    for (int v = 0; v < 400; ++v) rest.emplace_back(unit(random), unit(random), unit(random));
+    std::vector<uint32_t> tri;
+    for (int t = 0; t < 301; ++t) {
+      const uint32_t a = uint32_t(random() % 400);
+      uint32_t b = (a + 1 + uint32_t(random() % 20)) % 400, c = (b + 1 + uint32_t(random() % 20)) % 400;
+      tri.insert(tri.end(), {a, b, c});
+    }
+    std::vector<glm::vec3> now = rest;
+    for (glm::vec3& p : now) p = 0.5f * p + glm::vec3(0.1f * unit(random));
+    std::vector<uint8_t> wanted(tri.size() / 3);
+    for (uint8_t& w : wanted) w = random() % 2 == 0 ? 1 : 0;
+    check_search(rest, now, tri, wanted);
+  }
+}
