@@ -44,6 +44,8 @@ GuardWorkspace make_guard_workspace(const ContactMesh& mesh, const AllocatorRef&
   ws.flagged_list.reserve(mesh.vertex_count);
   ws.ramp.resize(mesh.vertex_count);
   ws.lowered.resize(mesh.vertex_count);
+  ws.corrected_list.reserve(mesh.vertex_count);
+  ws.lowered_list.reserve(mesh.vertex_count);
   ws.tested.resize(triangles);
   ws.test_list.reserve(triangles);
   ws.boxes.resize(mesh.hierarchy);
@@ -70,37 +72,57 @@ glm::vec3 blended_position(const Deformable& d, const ContactMesh& mesh, const D
 // moved corner; each later round only the triangles around the vertices the previous round
 // changed (a pair none of whose corners changed keeps its verdict).
 //
-// `only` (per welded vertex, or null): the current factors are known to add no pair except
-// where a vertex so marked moved since, so the first round tests only the triangles around
-// those (a pair none of whose corners moved keeps its verdict).
+// `only` (welded vertices, or null): the positions and boxes of the previous call are known
+// to add no pair, and only the vertices listed have moved since (towards L), so the first
+// round recomputes and tests only the triangles around those.
 void guard_intersections(const Deformable& d, const ContactMesh& mesh, const DenseOutput& skelform,
-                         const DenseOutput& lbs, GuardWorkspace& ws, const uint8_t* only = nullptr) {
+                         const DenseOutput& lbs, GuardWorkspace& ws, const Array<uint32_t>* only = nullptr) {
   const uint32_t* tri = mesh.triangles.data();
   const uint32_t* rep = mesh.representative.data();
   const TriangleHierarchy& h = mesh.hierarchy;
-  bool finite = true;
-  for (uint32_t v = 0; v < mesh.vertex_count; ++v) {
-    const glm::vec3 l = lbs.positions[rep[v]];
-    ws.positions[v] = blended_position(d, mesh, skelform, lbs, ws, v);
-    ws.moved[v] = ws.positions[v] != l;
-    finite &= std::isfinite(l.x + l.y + l.z + ws.positions[v].x + ws.positions[v].y + ws.positions[v].z);
-  }
-  if (!finite) {
-    std::fill(ws.factor.begin(), ws.factor.end(), 0.0f);  // a non-finite position: LBS
-    return;
-  }
-  // Boxes at x, slot by slot, and the first round's triangles: those with a moved corner.
   ws.test_list.clear();
-  for (uint32_t i = 0; i < mesh.triangle_count; ++i) {
-    const uint32_t t = h.order[i];
-    const uint32_t* c = tri + 3 * size_t(t);
-    float box[6];
-    triangle_box(ws.positions[c[0]], ws.positions[c[1]], ws.positions[c[2]], box);
-    ws.boxes.set(i, box);
-    const bool moved = (ws.moved[c[0]] || ws.moved[c[1]] || ws.moved[c[2]]) &&
-                       (!only || only[c[0]] || only[c[1]] || only[c[2]]);
-    ws.tested[t] = moved;
-    if (moved) ws.test_list.push_back(t);
+  if (only) {
+    for (uint32_t v : *only) {
+      ws.positions[v] = blended_position(d, mesh, skelform, lbs, ws, v);
+      ws.moved[v] = ws.positions[v] != lbs.positions[rep[v]];
+    }
+    for (uint32_t v : *only)
+      for (uint32_t k = mesh.incident_offsets[v]; k < mesh.incident_offsets[v + 1]; ++k) {
+        const uint32_t t = mesh.incident[k];
+        if (ws.tested[t]) continue;
+        const uint32_t* c = tri + 3 * size_t(t);
+        float box[6];
+        triangle_box(ws.positions[c[0]], ws.positions[c[1]], ws.positions[c[2]], box);
+        ws.boxes.set(h.slot[t], box);
+        if (ws.moved[c[0]] || ws.moved[c[1]] || ws.moved[c[2]]) {
+          ws.tested[t] = 1;
+          ws.test_list.push_back(t);
+        }
+      }
+  } else {
+    bool finite = true;
+    for (uint32_t v = 0; v < mesh.vertex_count; ++v) {
+      const glm::vec3 l = lbs.positions[rep[v]];
+      ws.positions[v] = blended_position(d, mesh, skelform, lbs, ws, v);
+      ws.moved[v] = ws.positions[v] != l;
+      finite &= std::isfinite(l.x + l.y + l.z + ws.positions[v].x + ws.positions[v].y + ws.positions[v].z);
+    }
+    if (!finite) {
+      std::fill(ws.factor.begin(), ws.factor.end(), 0.0f);  // a non-finite position: LBS
+      ws.corrected_list.clear();  // (no ramp: nothing is above 0)
+      return;
+    }
+    // Boxes at x, slot by slot, and the first round's triangles: those with a moved corner.
+    for (uint32_t i = 0; i < mesh.triangle_count; ++i) {
+      const uint32_t t = h.order[i];
+      const uint32_t* c = tri + 3 * size_t(t);
+      float box[6];
+      triangle_box(ws.positions[c[0]], ws.positions[c[1]], ws.positions[c[2]], box);
+      ws.boxes.set(i, box);
+      const bool moved = ws.moved[c[0]] || ws.moved[c[1]] || ws.moved[c[2]];
+      ws.tested[t] = moved;
+      if (moved) ws.test_list.push_back(t);
+    }
   }
   if (ws.test_list.empty()) return;
   // Round one on the tight boxes at x; later rounds on the reach (below).
@@ -140,9 +162,10 @@ void guard_intersections(const Deformable& d, const ContactMesh& mesh, const Den
       self_pairs_triangle_hierarchy(h, ws.node_boxes.data(), ws.boxes, ws.tested.data(), ws.node_flags.data(),
                                     ws.leaf_flags.data(), check_exact);
     } else {
-      if (round == 1) {
-        // From here on the corners only travel towards L: each triangle's reach is its box at
-        // x now and at L.
+      if (round == 1 && !ws.reach_ready) {
+        // From here on, in this evaluation, the corners only travel towards L (λ only falls):
+        // each triangle's reach is its box at x now and at L.
+        ws.reach_ready = true;
         for (uint32_t i = 0; i < mesh.triangle_count; ++i) {
           const uint32_t* c = tri + 3 * size_t(h.order[i]);
           float box[6], at_l[6];
@@ -154,8 +177,8 @@ void guard_intersections(const Deformable& d, const ContactMesh& mesh, const Den
           }
           ws.reach_boxes.set(i, box);
         }
-        refit_triangle_hierarchy(h, ws.reach_boxes, ws.node_boxes.data());
       }
+      if (round == 1) refit_triangle_hierarchy(h, ws.reach_boxes, ws.node_boxes.data());
       for (uint32_t t : ws.test_list) {
         float bt[6];
         ws.boxes.get(h.slot[t], bt);
@@ -176,6 +199,7 @@ void guard_intersections(const Deformable& d, const ContactMesh& mesh, const Den
       ws.flagged[v] = 0;
       ws.changed[v] = ws.moved[v];
       if (!ws.moved[v]) continue;
+      if (ws.factor[v] == 1.0f) ws.corrected_list.push_back(v);  // capacity for every vertex
       ws.factor[v] = round + 1 >= kGuardHalvings ? 0.0f : 0.5f * ws.factor[v];
       ws.positions[v] = blended_position(d, mesh, skelform, lbs, ws, v);
       ws.moved[v] = ws.positions[v] != lbs.positions[rep[v]];
@@ -198,29 +222,48 @@ void guard_intersections(const Deformable& d, const ContactMesh& mesh, const Den
 }
 
 // Lowers every λ to at most half-way between 1 and its neighbours' smallest, kGuardRampRings
-// times: a ramp from each corrected vertex back to full skelform. False when nothing changed.
+// times: a ramp from each corrected vertex back to full skelform. Each ring reads the factors
+// of the ring before. Only a vertex next to one below 1 can change: the rings visit the
+// neighbourhoods of ws.corrected_list, which they extend. Lists the lowered vertices in
+// ws.lowered_list; false when there are none.
 bool ramp_factors(const ContactMesh& mesh, GuardWorkspace& ws) {
-  bool any = false;
+  ws.lowered_list.clear();
+  Array<uint32_t>& candidates = ws.flagged_list;  // free between guard rounds
   for (uint32_t ring = 0; ring < kGuardRampRings; ++ring) {
-    std::copy(ws.factor.begin(), ws.factor.end(), ws.ramp.begin());
-    bool changed = false;
-    for (uint32_t v = 0; v < mesh.vertex_count; ++v) {
+    candidates.clear();
+    for (uint32_t u : ws.corrected_list)
+      for (uint32_t k = mesh.incident_offsets[u]; k < mesh.incident_offsets[u + 1]; ++k)
+        for (int j = 0; j < 3; ++j) {
+          const uint32_t v = mesh.triangles[3 * size_t(mesh.incident[k]) + size_t(j)];
+          if (ws.flagged[v]) continue;
+          ws.flagged[v] = 1;
+          candidates.push_back(v);
+        }
+    for (uint32_t v : candidates) {
       float lowest = 1.0f;
       for (uint32_t k = mesh.incident_offsets[v]; k < mesh.incident_offsets[v + 1]; ++k) {
         const uint32_t* c = mesh.triangles.data() + 3 * size_t(mesh.incident[k]);
-        lowest = std::min({lowest, ws.ramp[c[0]], ws.ramp[c[1]], ws.ramp[c[2]]});
+        lowest = std::min({lowest, ws.factor[c[0]], ws.factor[c[1]], ws.factor[c[2]]});
       }
-      const float limit = 0.5f * (1.0f + lowest);
-      if (ws.factor[v] > limit) {
-        ws.factor[v] = limit;
-        ws.lowered[v] = 1;
-        changed = true;
-      }
+      ws.ramp[v] = std::min(ws.factor[v], 0.5f * (1.0f + lowest));
     }
+    bool changed = false;
+    for (uint32_t v : candidates) {
+      ws.flagged[v] = 0;
+      if (!(ws.ramp[v] < ws.factor[v])) continue;
+      if (ws.factor[v] == 1.0f) ws.corrected_list.push_back(v);
+      ws.factor[v] = ws.ramp[v];
+      if (!ws.lowered[v]) {
+        ws.lowered[v] = 1;
+        ws.lowered_list.push_back(v);
+      }
+      changed = true;
+    }
+    candidates.clear();
     if (!changed) break;
-    any = true;
   }
-  return any;
+  for (uint32_t v : ws.lowered_list) ws.lowered[v] = 0;
+  return !ws.lowered_list.empty();
 }
 
 // The volume bounded by x(μ) = L + μ·c at the representatives, c the guarded correction, as
@@ -284,6 +327,8 @@ void guard_and_blend(const Deformable& d, const ContactMesh& mesh, float scale, 
                      const DenseOutput& lbs, bool with_normals, const DenseOutput& out, GuardWorkspace& ws) {
   const float* weight = d.skelform_weight.data();
   std::fill(ws.factor.begin(), ws.factor.end(), 1.0f);
+  ws.corrected_list.clear();
+  ws.reach_ready = false;
   ws.rounds = 0;
   ws.volume_share = 1.0f;
   const bool welded = mesh.weld.size() == d.vertex_count && mesh.triangle_count >= 2;
@@ -293,10 +338,7 @@ void guard_and_blend(const Deformable& d, const ContactMesh& mesh, float scale, 
     // by at most half of what is left per ring, over kGuardRampRings rings; the lowered factors
     // are then checked again (a vertex between K and L is not safe by itself).
     // Only the triangles around a lowered vertex can have a new pair: the rest is as checked.
-    if (ramp_factors(mesh, ws)) {
-      guard_intersections(d, mesh, skelform, lbs, ws, ws.lowered.data());
-      std::fill(ws.lowered.begin(), ws.lowered.end(), uint8_t{0});  // only a ramp sets them
-    }
+    if (ramp_factors(mesh, ws)) guard_intersections(d, mesh, skelform, lbs, ws, &ws.lowered_list);
     // Volume: a closed mesh keeps its rest volume, scaled by the pose's reference scale cubed,
     // no worse than LBS does; μ scales the whole guarded correction where it would not.
     if (mesh.closed && std::isfinite(mesh.rest_volume) && mesh.rest_volume != 0.0) {
