@@ -27,7 +27,7 @@ struct HierarchyNode {
   uint32_t count = 0;
 };
 
-constexpr uint32_t kLeafTriangles = 8;
+constexpr uint32_t kLeafTriangles = 16;
 constexpr uint32_t kMaxHierarchyDepth = 64;
 
 struct TriangleHierarchy {
