@@ -21,6 +21,9 @@
 #                            and Khronos samples of the data dir, and the procedural character):
 #                            builds, runs skelform-quality --check and prints its table as
 #                            Markdown (the README's); ARGS go to skelform-quality (e.g. --contacts)
+#   ./run.sh speed [RUNS]    the README's speed table: skelform-bench --markdown (every method
+#                            against the optimised LBS, CPU time, median of RUNS runs, default
+#                            5; needs CesiumMan in the data dir; about 30 s per run)
 #   ./run.sh screenshots     regenerate the README's pictures (docs/images/*.png) from the web
 #                            viewer in headless chromium (needs CesiumMan, Fox and the
 #                            Quaternius Horse in the data dir)
@@ -173,6 +176,14 @@ run_quality() {
   "$root/build/samples/skelform-quality" "${inputs[@]}" --frames 9 -q --markdown --check "$@"
 }
 
+# The README's speed table: skelform-bench over CesiumMan and its 75K-triangle refinement.
+run_speed() {
+  local runs=${1:-5}
+  build "$root/build" -DCMAKE_BUILD_TYPE=Release --target skelform-bench
+  echo "==> skelform-bench --markdown --runs $runs"
+  "$root/build/bench/skelform-bench" --markdown --runs "$runs"
+}
+
 # docs/images/*.png: the README's pictures, from the viewer on skelform-animate's files.
 run_screenshots() {
   install_viewer
@@ -201,6 +212,7 @@ case "${1:-}" in
   viewer) shift; install_viewer; exec "$root/samples/viewer/serve.sh" "$@" ;;
   screenshots) run_screenshots ;;
   quality) shift; run_quality "$@" ;;
-  -h|--help) sed -n '2,27p' "$0" ;;
+  speed) shift; run_speed "$@" ;;
+  -h|--help) sed -n '2,32p' "$0" ;;
   *) run_main_job "${1:-}" ;;
 esac

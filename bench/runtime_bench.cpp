@@ -7,6 +7,11 @@
 //   skelform_semi_implicit  the same with the semi-implicit fairing steps (SF_FAIR_SEMI_IMPLICIT)
 //   skelform_contacts  the default evaluation with the contact pass turned on
 //               (sf_instance_set_contacts; off by default)
+//   lbs_optimised  linear blend skinning as a game engine does it (bench/fast_lbs.h: AVX2/FMA
+//               when the CPU has it, positions and renormalised normals written straight
+//               into an interleaved vertex buffer): the speed baseline; at start-up it is
+//               checked against SF_METHOD_LBS on the first poses (stderr gives the largest
+//               difference, in diagonals) and the run fails if they differ by over 1e-6
 //   lbs, dqs    the runtime's baselines (SF_METHOD_LBS / SF_METHOD_DQS), same calls
 //   delta_mush  Delta Mush with 10 smoothing iterations (bench/delta_mush.h), positions only
 // on CesiumMan (3,273 vertices) and CesiumMan Loop-subdivided twice (~75K triangles), posed by
@@ -14,23 +19,28 @@
 // around at the end (samples/common/gltf_animation.h).
 //
 //   skelform-bench [Google Benchmark flags]     Google Benchmark tables
-//   skelform-bench --json [--smoke] [--cpu]     one JSON line per mesh:
+//   skelform-bench --markdown [--runs N]        the README's speed table (CPU time, the median
+//                                               of N runs, ratios against lbs_optimised)
+//   skelform-bench --json [--smoke] [--cpu] [--runs N]  one JSON line per mesh:
 //     {"mesh": name, "vertices": n, "ms": {"skelform": .., "skelform_unfaired": ..,
-//      "skelform_semi_implicit": .., "skelform_contacts": ..,
+//      "skelform_semi_implicit": .., "skelform_contacts": .., "lbs_optimised": ..,
 //      "lbs": .., "dqs": .., "delta_mush": ..}}
 //     each figure the median of timed evaluations, the methods taking turns frame by frame
-//     (--smoke: a handful, for CI); wall time, or
+//     (--smoke: a handful, for CI), with --runs N the median of N such medians; wall time, or
 //     with --cpu the thread's CPU time (the fairer figure on a loaded machine)
 //
 // Baked models are cached in $TMPDIR/skelform-bench-cache (bench_models.h). Without the
 // shared data (SKELFORM_DATA_DIR) it prints a message and exits 0.
 #include "bench_models.h"
 #include "delta_mush.h"
+#include "fast_lbs.h"
 #include "gltf_animation.h"
 #include "skelform/bake/input.h"
 #include "skelform/skelform.h"
 
 #include <benchmark/benchmark.h>
+#include <glm/geometric.hpp>
+#include <glm/vec3.hpp>
 
 #include <algorithm>
 #include <array>
@@ -39,15 +49,18 @@
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
+#include <limits>
 #include <map>
 #include <memory>
 #include <stdexcept>
 #include <string>
+#include <thread>
 #include <vector>
 
 namespace {
 
 using skelform::bench::DeltaMush;
+using skelform::bench::FastLbs;
 
 constexpr double kFramesPerSecond = 30.0;
 
@@ -56,14 +69,17 @@ enum class Method {
   skelform_unfaired,
   skelform_semi_implicit,
   skelform_contacts,
+  lbs_optimised,
   lbs,
   dqs,
   delta_mush
 };
-constexpr std::array<Method, 7> kMethods = {Method::skelform,          Method::skelform_unfaired,
+constexpr std::array<Method, 8> kMethods = {Method::skelform,          Method::skelform_unfaired,
                                             Method::skelform_semi_implicit, Method::skelform_contacts,
-                                            Method::lbs,               Method::dqs,
-                                            Method::delta_mush};
+                                            Method::lbs_optimised,     Method::lbs,
+                                            Method::dqs,               Method::delta_mush};
+// Methods that run through the C API (an sf_instance each).
+bool through_api(Method method) { return method != Method::lbs_optimised && method != Method::delta_mush; }
 
 const char* method_name(Method method) {
   switch (method) {
@@ -71,6 +87,7 @@ const char* method_name(Method method) {
     case Method::skelform_unfaired: return "skelform_unfaired";
     case Method::skelform_semi_implicit: return "skelform_semi_implicit";
     case Method::skelform_contacts: return "skelform_contacts";
+    case Method::lbs_optimised: return "lbs_optimised";
     case Method::lbs: return "lbs";
     case Method::dqs: return "dqs";
     case Method::delta_mush: return "delta_mush";
@@ -112,7 +129,9 @@ class Scene {
     }
     positions_.resize(3 * size_t{info_.vertex_count});
     normals_.resize(3 * size_t{info_.vertex_count});
-    for (size_t m = 0; m < instances_.size(); ++m) check(sf_instance_create(asset_, 0, &instances_[m]), "sf_instance_create");
+    for (Method method : kMethods)
+      if (through_api(method))
+        check(sf_instance_create(asset_, 0, &instances_[size_t(method)]), "sf_instance_create");
     sf_instance* contacts = instances_[static_cast<size_t>(Method::skelform_contacts)];
     check(sf_instance_set_contacts(contacts, 1), "sf_instance_set_contacts", contacts);
 
@@ -146,6 +165,16 @@ class Scene {
           weights[(v * sets + s) * 4 + k] = input.weight_sets[s][v][k];
         }
     delta_mush_ = std::make_unique<DeltaMush>(rest, triangles, joints, weights, 4 * sets);
+
+    // The optimised LBS on the same vertices; its rest normals are the runtime's rest pose
+    // (identity joint matrices give the stored mesh).
+    std::vector<float> identity(16 * size_t{info_.joint_count}, 0.0f);
+    for (uint32_t j = 0; j < info_.joint_count; ++j)
+      for (int k = 0; k < 4; ++k) identity[16 * size_t{j} + 5 * size_t(k)] = 1.0f;
+    evaluate_api(Method::lbs, identity);
+    lbs_optimised_ = std::make_unique<FastLbs>(positions_, normals_, joints, weights, 4 * sets);
+    vertex_buffer_.resize(kVertexStride * size_t{info_.vertex_count});
+    check_lbs_optimised();
   }
   Scene(const Scene&) = delete;
   Scene& operator=(const Scene&) = delete;
@@ -165,6 +194,19 @@ class Scene {
       delta_mush_->deform(matrices.data(), info_.joint_count, positions_.data());
       return;
     }
+    if (method == Method::lbs_optimised) {
+      lbs_optimised_->skin(matrices.data(), vertex_buffer_.data(), kVertexStride);
+      return;
+    }
+    evaluate_api(method, matrices);
+  }
+
+  const float* positions() const { return positions_.data(); }
+
+ private:
+  static constexpr size_t kVertexStride = 8;  // floats per vertex: position, normal, uv
+
+  void evaluate_api(Method method, const std::vector<float>& matrices) {
     sf_instance* instance = instances_[static_cast<size_t>(method)];
     check(sf_instance_set_joint_matrices(instance, matrices.data(), info_.joint_count, 0),
           "sf_instance_set_joint_matrices", instance);
@@ -182,17 +224,45 @@ class Scene {
     }
   }
 
-  const float* positions() const { return positions_.data(); }
+  // The optimised LBS gives SF_METHOD_LBS's result: on the first poses, the largest
+  // difference of a position (in diagonals of the rest mesh) and of a normal must stay under
+  // 1e-6 and 1e-5 (float rounding: the two sum in different orders, one with FMA).
+  void check_lbs_optimised() {
+    glm::vec3 lo(std::numeric_limits<float>::max()), hi(-std::numeric_limits<float>::max());
+    for (size_t v = 0; v < info_.vertex_count; ++v)
+      for (int c = 0; c < 3; ++c) {
+        lo[c] = std::min(lo[c], positions_[3 * v + size_t(c)]);
+        hi[c] = std::max(hi[c], positions_[3 * v + size_t(c)]);
+      }
+    const double diagonal = double(glm::length(hi - lo));
+    double position_error = 0.0, normal_error = 0.0;
+    for (size_t pose = 0; pose < std::min<size_t>(poses_.size(), 8); ++pose) {
+      evaluate_api(Method::lbs, poses_[pose]);
+      lbs_optimised_->skin(poses_[pose].data(), vertex_buffer_.data(), kVertexStride);
+      for (size_t v = 0; v < info_.vertex_count; ++v)
+        for (size_t c = 0; c < 3; ++c) {
+          position_error = std::max(position_error, std::fabs(double(vertex_buffer_[kVertexStride * v + c]) -
+                                                              double(positions_[3 * v + c])) / diagonal);
+          normal_error = std::max(normal_error, std::fabs(double(vertex_buffer_[kVertexStride * v + 3 + c]) -
+                                                          double(normals_[3 * v + c])));
+        }
+    }
+    std::fprintf(stderr, "skelform-bench: %s: lbs_optimised (%s) differs from SF_METHOD_LBS by %.2g diagonals "
+                 "(positions), %.2g (normals)\n", name_.c_str(), lbs_optimised_->kernel(), position_error, normal_error);
+    if (!(position_error <= 1e-6 && normal_error <= 1e-5))
+      throw std::runtime_error(name_ + ": lbs_optimised does not match SF_METHOD_LBS");
+  }
 
- private:
   std::string name_;
   sf_asset* asset_ = nullptr;
   sf_deformable_info info_{};
   std::vector<sf_primitive_info> primitives_;
-  std::array<sf_instance*, kMethods.size() - 1> instances_{};  // indexed by Method (every one but delta_mush)
+  std::array<sf_instance*, kMethods.size()> instances_{};  // indexed by Method (null where not through_api)
   std::vector<std::vector<float>> poses_;
   std::unique_ptr<DeltaMush> delta_mush_;
+  std::unique_ptr<FastLbs> lbs_optimised_;
   std::vector<float> positions_, normals_;
+  std::vector<float> vertex_buffer_;  // the optimised LBS's interleaved output
 };
 
 // Scenes are expensive (bake on first use): built once per process.
@@ -237,16 +307,62 @@ std::array<double, kMethods.size()> median_ms(Scene& s, int samples, bool cpu_ti
   return medians;
 }
 
-int run_json(bool smoke, bool cpu_time) {
+// The machine, for the Markdown table: the CPU's model name (Linux) and the cores.
+std::string machine_name() {
+  std::string model = "unknown CPU";
+  if (FILE* f = std::fopen("/proc/cpuinfo", "r")) {
+    char line[512];
+    while (std::fgets(line, sizeof(line), f))
+      if (std::strncmp(line, "model name", 10) == 0) {
+        const char* colon = std::strchr(line, ':');
+        if (colon) model = std::string(colon + 2, std::strcspn(colon + 2, "\n"));
+        break;
+      }
+    std::fclose(f);
+  }
+  return model + ", " + std::to_string(std::thread::hardware_concurrency()) + " cores";
+}
+
+// `runs` repetitions of median_ms per mesh, and the median of each method over them: one JSON
+// line per mesh, or (markdown) the README's table, every ratio against lbs_optimised.
+int run_json(bool smoke, bool cpu_time, int runs, bool markdown) {
   if (!skelform::bench::cesium_man_path()) {
     std::fprintf(stderr, "skelform-bench: skipped: CesiumMan/CesiumMan.glb not found under %s (set SKELFORM_DATA_DIR)\n",
                  skelform::bench::data_dir().string().c_str());
     return 0;
   }
   const int samples = smoke ? 5 : 101;
+  if (markdown) {
+    std::printf("ms per evaluation, %s time of one thread, median of %d runs of %d frames (`skelform-bench --markdown "
+                "--runs %d`), %s; in brackets: × lbs_optimised\n\n",
+                cpu_time ? "CPU" : "wall", runs, samples, runs, machine_name().c_str());
+    std::printf("| mesh | vertices |");
+    for (Method method : kMethods) std::printf(" %s |", method_name(method));
+    std::printf("\n| --- | ---: |");
+    for (size_t m = 0; m < kMethods.size(); ++m) std::printf(" ---: |");
+    std::printf("\n");
+  }
   for (const MeshCase& mesh_case : kMeshes) {
     Scene& s = scene(mesh_case);
-    const std::array<double, kMethods.size()> medians = median_ms(s, samples, cpu_time);
+    std::array<std::vector<double>, kMethods.size()> per_run;
+    for (int run = 0; run < runs; ++run) {
+      const std::array<double, kMethods.size()> medians = median_ms(s, samples, cpu_time);
+      for (size_t m = 0; m < kMethods.size(); ++m) per_run[m].push_back(medians[m]);
+    }
+    std::array<double, kMethods.size()> medians{};
+    for (size_t m = 0; m < kMethods.size(); ++m) {
+      std::sort(per_run[m].begin(), per_run[m].end());
+      medians[m] = per_run[m][per_run[m].size() / 2];
+    }
+    if (markdown) {
+      const double base = medians[static_cast<size_t>(Method::lbs_optimised)];
+      std::printf("| %s | %zu |", s.name().c_str(), s.vertex_count());
+      for (size_t m = 0; m < kMethods.size(); ++m)
+        std::printf(" %.3f (%.1f×) |", medians[m], base > 0.0 ? medians[m] / base : 0.0);
+      std::printf("\n");
+      std::fflush(stdout);
+      continue;
+    }
     std::string ms;
     for (size_t m = 0; m < kMethods.size(); ++m) {
       char item[96];
@@ -284,24 +400,35 @@ void register_benchmarks() {
 }  // namespace
 
 int main(int argc, char** argv) {
-  bool json = false, smoke = false, cpu_time = false;
+  bool json = false, markdown = false, smoke = false, cpu_time = false;
+  int runs = 1;
   std::vector<char*> passed{argv[0]};
   for (int i = 1; i < argc; ++i) {
     if (std::strcmp(argv[i], "--json") == 0) json = true;
+    else if (std::strcmp(argv[i], "--markdown") == 0) markdown = cpu_time = true;
     else if (std::strcmp(argv[i], "--smoke") == 0) smoke = true;
     else if (std::strcmp(argv[i], "--cpu") == 0) cpu_time = true;
-    else passed.push_back(argv[i]);
-  }
-  try {
-    if (json) {
-      if (passed.size() > 1) {
-        std::fprintf(stderr, "skelform-bench: error: --json takes only --smoke and --cpu, got %s\n", passed[1]);
+    else if (std::strcmp(argv[i], "--runs") == 0 && i + 1 < argc) {
+      char* end = nullptr;
+      const long n = std::strtol(argv[++i], &end, 10);
+      if (*end != '\0' || n < 1 || n > 99) {
+        std::fprintf(stderr, "skelform-bench: error: --runs takes 1 to 99, got %s\n", argv[i]);
         return 1;
       }
-      return run_json(smoke, cpu_time);
+      runs = int(n);
+    } else passed.push_back(argv[i]);
+  }
+  try {
+    if (json || markdown) {
+      if (passed.size() > 1) {
+        std::fprintf(stderr, "skelform-bench: error: --json and --markdown take only --smoke, --cpu and --runs N, got %s\n",
+                     passed[1]);
+        return 1;
+      }
+      return run_json(smoke, cpu_time, runs, markdown);
     }
-    if (cpu_time) {
-      std::fprintf(stderr, "skelform-bench: error: --cpu belongs to --json (Google Benchmark prints CPU time itself)\n");
+    if (cpu_time || runs != 1) {
+      std::fprintf(stderr, "skelform-bench: error: --cpu and --runs belong to --json and --markdown\n");
       return 1;
     }
     static char min_time[] = "--benchmark_min_time=0.01";
