@@ -9,7 +9,8 @@
 #                            the command that opens the web viewer
 #   ./run.sh MODEL           the same main job on your own skinned glTF (.glb/.gltf) into
 #                            out/MODEL.anim.glb; .obj/.ply/.off: the skeletal mesh only
-#   ./run.sh test            install missing packages, build, run the whole test suite,
+#   ./run.sh test            install missing packages, check the sources' format
+#                            (tools/format.sh), build, run the whole test suite,
 #                            then again under AddressSanitizer + UndefinedBehaviorSanitizer,
 #                            and the multi-threaded instance test under ThreadSanitizer
 #                            (with the web viewer's browser test in headless chromium), again
@@ -84,6 +85,10 @@ build() {
 
 run_tests() {
   install_validator
+  # Every C/C++ source as .clang-format lays it out (clang-format 14).
+  dpkg-query -W -f='${Status}' clang-format-14 2>/dev/null | grep -q "install ok installed" || apt_install clang-format-14
+  echo "==> format check"
+  "$root/tools/format.sh" --check
   build "$root/build" -DCMAKE_BUILD_TYPE=Release
   echo "==> tests (Release)"
   ctest --test-dir "$root/build" --output-on-failure -j "$jobs"
@@ -213,6 +218,6 @@ case "${1:-}" in
   screenshots) run_screenshots ;;
   quality) shift; run_quality "$@" ;;
   speed) shift; run_speed "$@" ;;
-  -h|--help) sed -n '2,32p' "$0" ;;
+  -h|--help) sed -n '2,33p' "$0" ;;
   *) run_main_job "${1:-}" ;;
 esac

@@ -21,8 +21,9 @@ constexpr double kBudgetSeconds = 10.0;
 void BM_Bake(benchmark::State& state) {
   const int levels = static_cast<int>(state.range(0));
   if (!skelform::bench::cesium_man_path()) {
-    state.SkipWithError(("CesiumMan/CesiumMan.glb not found under " + skelform::bench::data_dir().string() +
-                         " (set SKELFORM_DATA_DIR)").c_str());
+    state.SkipWithError(
+        ("CesiumMan/CesiumMan.glb not found under " + skelform::bench::data_dir().string() + " (set SKELFORM_DATA_DIR)")
+            .c_str());
     return;
   }
   const std::string path = skelform::bench::cesium_man_subdivided(levels).string();

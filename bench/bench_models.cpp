@@ -43,7 +43,8 @@ int append_view(tinygltf::Model& model, const std::vector<T>& values, int target
   return static_cast<int>(model.bufferViews.size() - 1);
 }
 
-int append_accessor(tinygltf::Model& model, int view, int component_type, int type, size_t count, bool normalized = false) {
+int append_accessor(tinygltf::Model& model, int view, int component_type, int type, size_t count,
+                    bool normalized = false) {
   tinygltf::Accessor accessor;
   accessor.bufferView = view;
   accessor.componentType = component_type;
@@ -116,7 +117,8 @@ void write_skinned_glb(const std::string& source_gltf, const skelform::bake::Inp
   const std::vector<skelform::bake::Vec3> welded_normals = skelform::bake::vertex_normals(welded.mesh);
   std::vector<float> normals(3 * n);
   for (size_t v = 0; v < n; ++v)
-    for (int c = 0; c < 3; ++c) normals[3 * v + c] = static_cast<float>(welded_normals[welded.welded_of_original[v]][c]);
+    for (int c = 0; c < 3; ++c)
+      normals[3 * v + c] = static_cast<float>(welded_normals[welded.welded_of_original[v]][c]);
   std::vector<uint32_t> indices;
   indices.reserve(3 * mesh.triangles.size());
   for (const auto& t : mesh.triangles) indices.insert(indices.end(), t.begin(), t.end());

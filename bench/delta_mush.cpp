@@ -183,7 +183,8 @@ void DeltaMush::deform(const float* joint_matrices, size_t joint_count, float* o
     const float* frame = &frames_[9 * v];
     const float* d = &local_delta_[3 * v];
     for (int c = 0; c < 3; ++c)
-      out_positions[3 * original + c] = smoothed[3 * v + c] + d[0] * frame[c] + d[1] * frame[3 + c] + d[2] * frame[6 + c];
+      out_positions[3 * original + c] =
+          smoothed[3 * v + c] + d[0] * frame[c] + d[1] * frame[3 + c] + d[2] * frame[6 + c];
   }
 }
 

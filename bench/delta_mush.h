@@ -49,14 +49,14 @@ class DeltaMush {
 
   DeltaMushOptions options_;
   std::vector<uint32_t> original_to_welded_;
-  std::vector<float> welded_rest_;               // 3 per welded vertex
-  std::vector<uint32_t> welded_triangles_;       // 3 per triangle, welded indices
-  std::vector<uint32_t> neighbour_offsets_;      // CSR adjacency of the welded mesh
+  std::vector<float> welded_rest_;           // 3 per welded vertex
+  std::vector<uint32_t> welded_triangles_;   // 3 per triangle, welded indices
+  std::vector<uint32_t> neighbour_offsets_;  // CSR adjacency of the welded mesh
   std::vector<uint32_t> neighbours_;
-  std::vector<uint16_t> joints_;                 // influences_ per welded vertex
+  std::vector<uint16_t> joints_;  // influences_ per welded vertex
   std::vector<float> weights_;
   size_t influences_ = 0;
-  std::vector<float> local_delta_;               // 3 per welded vertex: (t, b, n) components
+  std::vector<float> local_delta_;  // 3 per welded vertex: (t, b, n) components
   // Per-frame scratch, sized once.
   std::vector<float> skinned_, scratch_, frames_;  // frames_: 9 per vertex (t, b, n)
 };

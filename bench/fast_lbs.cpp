@@ -4,8 +4,8 @@
 #include <stdexcept>
 
 #if defined(__x86_64__) || defined(_M_X64)
-#include <immintrin.h>
-#define SKELFORM_BENCH_X86 1
+#  include <immintrin.h>
+#  define SKELFORM_BENCH_X86 1
 #endif
 
 namespace skelform::bench {
@@ -98,10 +98,11 @@ __attribute__((target("avx2,fma"))) void skin_avx2(const float* m, const float* 
     const __m128 c2 = _mm256_castps256_ps128(b), c3 = _mm256_extractf128_ps(b, 1);
     const float* p = positions + 4 * v;
     const float* n = normals + 4 * v;
-    const __m128 q = _mm_fmadd_ps(c0, _mm_broadcast_ss(p), _mm_fmadd_ps(c1, _mm_broadcast_ss(p + 1),
-                                                                         _mm_fmadd_ps(c2, _mm_broadcast_ss(p + 2), c3)));
-    const __m128 d = _mm_fmadd_ps(c0, _mm_broadcast_ss(n), _mm_fmadd_ps(c1, _mm_broadcast_ss(n + 1),
-                                                                         _mm_mul_ps(c2, _mm_broadcast_ss(n + 2))));
+    const __m128 q =
+        _mm_fmadd_ps(c0, _mm_broadcast_ss(p),
+                     _mm_fmadd_ps(c1, _mm_broadcast_ss(p + 1), _mm_fmadd_ps(c2, _mm_broadcast_ss(p + 2), c3)));
+    const __m128 d = _mm_fmadd_ps(c0, _mm_broadcast_ss(n),
+                                  _mm_fmadd_ps(c1, _mm_broadcast_ss(n + 1), _mm_mul_ps(c2, _mm_broadcast_ss(n + 2))));
     const __m128 s = _mm_dp_ps(d, d, 0x7F);
     store3(out, q);
     store3(out + 3, _mm_div_ps(d, _mm_sqrt_ps(_mm_max_ps(s, _mm_set1_ps(1e-30f)))));

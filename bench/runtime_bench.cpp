@@ -74,23 +74,35 @@ enum class Method {
   dqs,
   delta_mush
 };
-constexpr std::array<Method, 8> kMethods = {Method::skelform,          Method::skelform_unfaired,
-                                            Method::skelform_semi_implicit, Method::skelform_contacts,
-                                            Method::lbs_optimised,     Method::lbs,
-                                            Method::dqs,               Method::delta_mush};
+constexpr std::array<Method, 8> kMethods = {Method::skelform,
+                                            Method::skelform_unfaired,
+                                            Method::skelform_semi_implicit,
+                                            Method::skelform_contacts,
+                                            Method::lbs_optimised,
+                                            Method::lbs,
+                                            Method::dqs,
+                                            Method::delta_mush};
 // Methods that run through the C API (an sf_instance each).
 bool through_api(Method method) { return method != Method::lbs_optimised && method != Method::delta_mush; }
 
 const char* method_name(Method method) {
   switch (method) {
-    case Method::skelform: return "skelform";
-    case Method::skelform_unfaired: return "skelform_unfaired";
-    case Method::skelform_semi_implicit: return "skelform_semi_implicit";
-    case Method::skelform_contacts: return "skelform_contacts";
-    case Method::lbs_optimised: return "lbs_optimised";
-    case Method::lbs: return "lbs";
-    case Method::dqs: return "dqs";
-    case Method::delta_mush: return "delta_mush";
+    case Method::skelform:
+      return "skelform";
+    case Method::skelform_unfaired:
+      return "skelform_unfaired";
+    case Method::skelform_semi_implicit:
+      return "skelform_semi_implicit";
+    case Method::skelform_contacts:
+      return "skelform_contacts";
+    case Method::lbs_optimised:
+      return "lbs_optimised";
+    case Method::lbs:
+      return "lbs";
+    case Method::dqs:
+      return "dqs";
+    case Method::delta_mush:
+      return "delta_mush";
   }
   return "?";
 }
@@ -130,8 +142,7 @@ class Scene {
     positions_.resize(3 * size_t{info_.vertex_count});
     normals_.resize(3 * size_t{info_.vertex_count});
     for (Method method : kMethods)
-      if (through_api(method))
-        check(sf_instance_create(asset_, 0, &instances_[size_t(method)]), "sf_instance_create");
+      if (through_api(method)) check(sf_instance_create(asset_, 0, &instances_[size_t(method)]), "sf_instance_create");
     sf_instance* contacts = instances_[static_cast<size_t>(Method::skelform_contacts)];
     check(sf_instance_set_contacts(contacts, 1), "sf_instance_set_contacts", contacts);
 
@@ -241,14 +252,17 @@ class Scene {
       lbs_optimised_->skin(poses_[pose].data(), vertex_buffer_.data(), kVertexStride);
       for (size_t v = 0; v < info_.vertex_count; ++v)
         for (size_t c = 0; c < 3; ++c) {
-          position_error = std::max(position_error, std::fabs(double(vertex_buffer_[kVertexStride * v + c]) -
-                                                              double(positions_[3 * v + c])) / diagonal);
-          normal_error = std::max(normal_error, std::fabs(double(vertex_buffer_[kVertexStride * v + 3 + c]) -
-                                                          double(normals_[3 * v + c])));
+          position_error = std::max(
+              position_error,
+              std::fabs(double(vertex_buffer_[kVertexStride * v + c]) - double(positions_[3 * v + c])) / diagonal);
+          normal_error = std::max(
+              normal_error, std::fabs(double(vertex_buffer_[kVertexStride * v + 3 + c]) - double(normals_[3 * v + c])));
         }
     }
-    std::fprintf(stderr, "skelform-bench: %s: lbs_optimised (%s) differs from SF_METHOD_LBS by %.2g diagonals "
-                 "(positions), %.2g (normals)\n", name_.c_str(), lbs_optimised_->kernel(), position_error, normal_error);
+    std::fprintf(stderr,
+                 "skelform-bench: %s: lbs_optimised (%s) differs from SF_METHOD_LBS by %.2g diagonals "
+                 "(positions), %.2g (normals)\n",
+                 name_.c_str(), lbs_optimised_->kernel(), position_error, normal_error);
     if (!(position_error <= 1e-6 && normal_error <= 1e-5))
       throw std::runtime_error(name_ + ": lbs_optimised does not match SF_METHOD_LBS");
   }
@@ -327,15 +341,17 @@ std::string machine_name() {
 // line per mesh, or (markdown) the README's table, every ratio against lbs_optimised.
 int run_json(bool smoke, bool cpu_time, int runs, bool markdown) {
   if (!skelform::bench::cesium_man_path()) {
-    std::fprintf(stderr, "skelform-bench: skipped: CesiumMan/CesiumMan.glb not found under %s (set SKELFORM_DATA_DIR)\n",
+    std::fprintf(stderr,
+                 "skelform-bench: skipped: CesiumMan/CesiumMan.glb not found under %s (set SKELFORM_DATA_DIR)\n",
                  skelform::bench::data_dir().string().c_str());
     return 0;
   }
   const int samples = smoke ? 5 : 101;
   if (markdown) {
-    std::printf("ms per evaluation, %s time of one thread, median of %d runs of %d frames (`skelform-bench --markdown "
-                "--runs %d`), %s; in brackets: × lbs_optimised\n\n",
-                cpu_time ? "CPU" : "wall", runs, samples, runs, machine_name().c_str());
+    std::printf(
+        "ms per evaluation, %s time of one thread, median of %d runs of %d frames (`skelform-bench --markdown "
+        "--runs %d`), %s; in brackets: × lbs_optimised\n\n",
+        cpu_time ? "CPU" : "wall", runs, samples, runs, machine_name().c_str());
     std::printf("| mesh | vertices |");
     for (Method method : kMethods) std::printf(" %s |", method_name(method));
     std::printf("\n| --- | ---: |");
@@ -369,7 +385,8 @@ int run_json(bool smoke, bool cpu_time, int runs, bool markdown) {
       std::snprintf(item, sizeof(item), "%s\"%s\": %.4f", ms.empty() ? "" : ", ", method_name(kMethods[m]), medians[m]);
       ms += item;
     }
-    std::printf("{\"mesh\": \"%s\", \"vertices\": %zu, \"ms\": {%s}}\n", s.name().c_str(), s.vertex_count(), ms.c_str());
+    std::printf("{\"mesh\": \"%s\", \"vertices\": %zu, \"ms\": {%s}}\n", s.name().c_str(), s.vertex_count(),
+                ms.c_str());
     std::fflush(stdout);
   }
   return 0;
@@ -382,7 +399,8 @@ void register_benchmarks() {
       benchmark::RegisterBenchmark(name.c_str(), [mesh_case, method](benchmark::State& state) {
         if (!skelform::bench::cesium_man_path()) {
           state.SkipWithError(("CesiumMan/CesiumMan.glb not found under " + skelform::bench::data_dir().string() +
-                               " (set SKELFORM_DATA_DIR)").c_str());
+                               " (set SKELFORM_DATA_DIR)")
+                                  .c_str());
           return;
         }
         Scene& s = scene(mesh_case);
@@ -404,10 +422,14 @@ int main(int argc, char** argv) {
   int runs = 1;
   std::vector<char*> passed{argv[0]};
   for (int i = 1; i < argc; ++i) {
-    if (std::strcmp(argv[i], "--json") == 0) json = true;
-    else if (std::strcmp(argv[i], "--markdown") == 0) markdown = cpu_time = true;
-    else if (std::strcmp(argv[i], "--smoke") == 0) smoke = true;
-    else if (std::strcmp(argv[i], "--cpu") == 0) cpu_time = true;
+    if (std::strcmp(argv[i], "--json") == 0)
+      json = true;
+    else if (std::strcmp(argv[i], "--markdown") == 0)
+      markdown = cpu_time = true;
+    else if (std::strcmp(argv[i], "--smoke") == 0)
+      smoke = true;
+    else if (std::strcmp(argv[i], "--cpu") == 0)
+      cpu_time = true;
     else if (std::strcmp(argv[i], "--runs") == 0 && i + 1 < argc) {
       char* end = nullptr;
       const long n = std::strtol(argv[++i], &end, 10);
@@ -416,12 +438,14 @@ int main(int argc, char** argv) {
         return 1;
       }
       runs = int(n);
-    } else passed.push_back(argv[i]);
+    } else
+      passed.push_back(argv[i]);
   }
   try {
     if (json || markdown) {
       if (passed.size() > 1) {
-        std::fprintf(stderr, "skelform-bench: error: --json and --markdown take only --smoke, --cpu and --runs N, got %s\n",
+        std::fprintf(stderr,
+                     "skelform-bench: error: --json and --markdown take only --smoke, --cpu and --runs N, got %s\n",
                      passed[1]);
         return 1;
       }

@@ -37,8 +37,8 @@ const std::optional<TriangleMesh>& hand_mesh() {
 
 bool skip_without_data(benchmark::State& state) {
   if (hand_mesh()) return false;
-  state.SkipWithError(("hand/hand_closed.obj not found under " + data_dir().string() +
-                       " (set SKELFORM_DATA_DIR)").c_str());
+  state.SkipWithError(
+      ("hand/hand_closed.obj not found under " + data_dir().string() + " (set SKELFORM_DATA_DIR)").c_str());
   return true;
 }
 

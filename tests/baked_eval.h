@@ -11,7 +11,8 @@
 namespace skelform::test {
 
 // The stencils applied to one value per control vertex (positions, or normal sums).
-inline std::vector<glm::vec3> refine_control(const bake::BakedDeformable& baked, const std::vector<glm::vec3>& control) {
+inline std::vector<glm::vec3> refine_control(const bake::BakedDeformable& baked,
+                                             const std::vector<glm::vec3>& control) {
   const size_t refined_count = baked.stencil_offsets.size() - 1;
   std::vector<glm::vec3> refined(refined_count, glm::vec3(0.0f));
   for (size_t v = 0; v < refined_count; ++v)
@@ -36,10 +37,9 @@ inline std::vector<glm::vec3> evaluate_rest(const bake::BakedDeformable& baked) 
   std::vector<glm::vec3> dense(baked.binding_triangle.size());
   for (size_t i = 0; i < dense.size(); ++i) {
     const uint32_t* corner = &baked.refined_indices[3 * size_t(baked.binding_triangle[i])];
-    const dss::SurfaceFrame frame =
-        dss::surface_frame(refined[corner[0]], refined[corner[1]], refined[corner[2]], normals[corner[0]],
-                           normals[corner[1]], normals[corner[2]], baked.binding_barycentric[i].x,
-                           baked.binding_barycentric[i].y);
+    const dss::SurfaceFrame frame = dss::surface_frame(refined[corner[0]], refined[corner[1]], refined[corner[2]],
+                                                       normals[corner[0]], normals[corner[1]], normals[corner[2]],
+                                                       baked.binding_barycentric[i].x, baked.binding_barycentric[i].y);
     dense[i] = dss::displaced_point(frame, baked.binding_displacement[i], baked.binding_residual[i]);
   }
   return dense;

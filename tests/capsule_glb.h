@@ -59,7 +59,8 @@ inline std::string capsule_glb(const CapsuleShape& shape = {}) {
     std::vector<glm::dvec3> normal_sum(n, glm::dvec3(0.0));
     for (const auto& t : mesh.triangles) {
       indices.insert(indices.end(), t.begin(), t.end());
-      const glm::dvec3 face = glm::cross(mesh.positions[t[1]] - mesh.positions[t[0]], mesh.positions[t[2]] - mesh.positions[t[0]]);
+      const glm::dvec3 face =
+          glm::cross(mesh.positions[t[1]] - mesh.positions[t[0]], mesh.positions[t[2]] - mesh.positions[t[0]]);
       for (uint32_t v : t) normal_sum[v] += face;
     }
     for (size_t i = 0; i < n; ++i) {

@@ -20,8 +20,8 @@
 namespace skelform::test {
 
 struct MeshReport {
-  size_t vertices = 0;    // referenced vertices
-  size_t edges = 0;       // undirected edges
+  size_t vertices = 0;  // referenced vertices
+  size_t edges = 0;     // undirected edges
   size_t faces = 0;
   long euler = 0;         // V - E + F (2 for a closed genus-0 surface)
   size_t components = 0;  // connected components of the triangles (through shared vertices)
@@ -70,8 +70,9 @@ inline MeshReport analyze_mesh(const bake::TriangleMesh& mesh) {
 
   // Closed and consistently oriented: each directed edge once, and its reverse once.
   for (const auto& [e, count] : directed) {
-    if (count != 1) problem("directed edge " + std::to_string(e.first) + "->" + std::to_string(e.second) +
-                            " used " + std::to_string(count) + " times");
+    if (count != 1)
+      problem("directed edge " + std::to_string(e.first) + "->" + std::to_string(e.second) + " used " +
+              std::to_string(count) + " times");
     const auto reverse = directed.find({e.second, e.first});
     if (reverse == directed.end())
       problem("edge " + std::to_string(e.first) + "-" + std::to_string(e.second) +
@@ -79,8 +80,10 @@ inline MeshReport analyze_mesh(const bake::TriangleMesh& mesh) {
     if (e.first < e.second || reverse == directed.end()) ++r.edges;
   }
   for (size_t v = 0; v < n; ++v) {
-    if (uses[v] == 0) problem("vertex " + std::to_string(v) + " unreferenced");
-    else ++r.vertices;
+    if (uses[v] == 0)
+      problem("vertex " + std::to_string(v) + " unreferenced");
+    else
+      ++r.vertices;
   }
 
   // Vertex-manifold: around each vertex, the triangles (v, a, b) chain a -> b into a single

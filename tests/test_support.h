@@ -31,10 +31,10 @@ inline std::filesystem::path scratch_dir(const std::string& name) {
 }  // namespace skelform::test
 
 // Skips the rest of a test case, with a message in the log, when a model is absent.
-#define SKELFORM_REQUIRE_DATA(var, relative)                                           \
-  const std::filesystem::path var = ::skelform::test::data_file(relative);             \
-  if (var.empty()) {                                                                   \
+#define SKELFORM_REQUIRE_DATA(var, relative)                                               \
+  const std::filesystem::path var = ::skelform::test::data_file(relative);                 \
+  if (var.empty()) {                                                                       \
     MESSAGE("skipped: " << relative << " not found under " << ::skelform::test::data_dir() \
-                        << " (set SKELFORM_DATA_DIR)");                                \
-    return;                                                                            \
+                        << " (set SKELFORM_DATA_DIR)");                                    \
+    return;                                                                                \
   }

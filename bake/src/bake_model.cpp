@@ -149,7 +149,8 @@ BakedDeformable bake_deformable(const InputMesh& group, const BakeOptions& optio
   stage("skin weights");
   baked.control_normals = to_float(skeleton.normals);
   baked.medial_radius.assign(skeleton.medial_radius.begin(), skeleton.medial_radius.end());
-  for (const Triangle& t : control.mesh.triangles) baked.control_indices.insert(baked.control_indices.end(), t.begin(), t.end());
+  for (const Triangle& t : control.mesh.triangles)
+    baked.control_indices.insert(baked.control_indices.end(), t.begin(), t.end());
   if (baked.skin >= 0) {
     // Each control vertex is a surviving dense vertex (decimate() makes no new positions), so
     // it takes the influences of the original vertex it came from.
@@ -187,7 +188,8 @@ BakedDeformable bake_deformable(const InputMesh& group, const BakeOptions& optio
   baked.stencil_offsets = std::move(stencils.offsets);
   baked.stencil_indices = std::move(stencils.indices);
   baked.stencil_weights = std::move(stencils.weights);
-  for (const Triangle& t : stencils.refined_triangles) baked.refined_indices.insert(baked.refined_indices.end(), t.begin(), t.end());
+  for (const Triangle& t : stencils.refined_triangles)
+    baked.refined_indices.insert(baked.refined_indices.end(), t.begin(), t.end());
   baked.binding_triangle = std::move(binding.triangle);
   baked.binding_barycentric = std::move(binding.barycentric);
   baked.binding_displacement = std::move(binding.displacement);
@@ -206,7 +208,8 @@ BakedDeformable bake_deformable(const InputMesh& group, const BakeOptions& optio
   // the winding number costs a solid angle per (query, triangle), and against a 300K-triangle
   // input it would dominate the whole bake.
   report.skeleton_inside = report.flat ? 0.0 : inside_fraction(control.mesh, skeleton.skeletal_positions);
-  report.residual_share = group.positions.empty() ? 0.0 : double(binding.residual_vertices) / double(group.positions.size());
+  report.residual_share =
+      group.positions.empty() ? 0.0 : double(binding.residual_vertices) / double(group.positions.size());
   report.rest_error = binding.max_rest_error;
   return baked;
 }

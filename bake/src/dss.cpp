@@ -163,7 +163,8 @@ Candidate solve_binding(const RefinedSurface& surface, const Vec3& p, uint32_t s
     double exit_fraction = 1.0;
     int exit_corner = -1;
     for (int i = 0; i < 3; ++i)
-      if (b[static_cast<size_t>(i)] + delta[static_cast<size_t>(i)] < -kInsideSlack && delta[static_cast<size_t>(i)] < 0.0) {
+      if (b[static_cast<size_t>(i)] + delta[static_cast<size_t>(i)] < -kInsideSlack &&
+          delta[static_cast<size_t>(i)] < 0.0) {
         const double fraction = std::max(0.0, b[static_cast<size_t>(i)]) / -delta[static_cast<size_t>(i)];
         if (fraction < exit_fraction) {
           exit_fraction = fraction;
@@ -223,8 +224,11 @@ FloatBinding finish_in_float(const RefinedSurface& surface, const Vec3& p, const
     const Vec3 error = p - Vec3(dss::displaced_point(frame, result.displacement, result.residual));
     h += glm::dot(error, normal);
     r += glm::dvec2(glm::dot(error, tangent), glm::dot(error, bitangent));
-    const FloatBinding corrected{{b1, b2}, static_cast<float>(h), glm::vec2(r),
-                                 glm::length(Vec3(dss::displaced_point(frame, static_cast<float>(h), glm::vec2(r))) - p)};
+    const FloatBinding corrected{
+        {b1, b2},
+        static_cast<float>(h),
+        glm::vec2(r),
+        glm::length(Vec3(dss::displaced_point(frame, static_cast<float>(h), glm::vec2(r))) - p)};
     if (corrected.error < result.error) result = corrected;
   }
   return result;
@@ -234,8 +238,8 @@ FloatBinding finish_in_float(const RefinedSurface& surface, const Vec3& p, const
 
 DssBinding bind_dense_vertices(const std::vector<glm::vec3>& refined_positions,
                                const std::vector<glm::vec3>& refined_normals,
-                               const std::vector<Triangle>& refined_triangles,
-                               const std::vector<Vec3>& dense_positions, double diagonal) {
+                               const std::vector<Triangle>& refined_triangles, const std::vector<Vec3>& dense_positions,
+                               double diagonal) {
   if (refined_positions.empty() || refined_triangles.empty())
     throw Error(ErrorKind::invalid_input, "DSS binding needs a non-empty refined mesh");
   if (refined_normals.size() != refined_positions.size())
@@ -295,8 +299,8 @@ DssBinding bind_dense_vertices(const std::vector<glm::vec3>& refined_positions,
     const Vec3& p = dense_positions[first];
     const TriangleTree::Hit hit = tree.closest(p);
     const Triangle& tri = refined_triangles[hit.triangle];
-    const std::array<double, 3> start = clamp_to_triangle(barycentrics_of(
-        hit.point, surface.positions[tri[0]], surface.positions[tri[1]], surface.positions[tri[2]]));
+    const std::array<double, 3> start = clamp_to_triangle(
+        barycentrics_of(hit.point, surface.positions[tri[0]], surface.positions[tri[1]], surface.positions[tri[2]]));
     const Candidate candidate = solve_binding(surface, p, hit.triangle, start, tolerance);
     const FloatBinding result = finish_in_float(surface, p, candidate);
     max_error = std::max(max_error, result.error);

@@ -17,9 +17,12 @@ namespace {
 
 ErrorKind kind_of(const skelform::gltf::GltfError& error) {
   switch (error.kind()) {
-    case skelform::gltf::GltfError::unsupported: return ErrorKind::unsupported;
-    case skelform::gltf::GltfError::io: return ErrorKind::io;
-    case skelform::gltf::GltfError::invalid: break;
+    case skelform::gltf::GltfError::unsupported:
+      return ErrorKind::unsupported;
+    case skelform::gltf::GltfError::io:
+      return ErrorKind::io;
+    case skelform::gltf::GltfError::invalid:
+      break;
   }
   return ErrorKind::invalid_input;
 }

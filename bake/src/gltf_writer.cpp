@@ -31,9 +31,9 @@ namespace {
 namespace fs = std::filesystem;
 using Json = nlohmann::ordered_json;
 
-constexpr uint32_t kGlbMagic = 0x46546C67;  // "glTF"
-constexpr uint32_t kChunkJson = 0x4E4F534A; // "JSON"
-constexpr uint32_t kChunkBin = 0x004E4942;  // "BIN\0"
+constexpr uint32_t kGlbMagic = 0x46546C67;   // "glTF"
+constexpr uint32_t kChunkJson = 0x4E4F534A;  // "JSON"
+constexpr uint32_t kChunkBin = 0x004E4942;   // "BIN\0"
 constexpr size_t kGlbHeaderSize = 12;
 constexpr size_t kChunkHeaderSize = 8;
 
@@ -132,8 +132,7 @@ bool is_absolute_uri(const std::string& uri) {
   if (colon == std::string::npos || colon == 0) return false;
   const size_t slash = uri.find('/');
   if (slash != std::string::npos && slash < colon) return false;
-  return std::isalpha(uint8_t(uri[0])) &&
-         std::all_of(uri.begin(), uri.begin() + long(colon), [](char c) {
+  return std::isalpha(uint8_t(uri[0])) && std::all_of(uri.begin(), uri.begin() + long(colon), [](char c) {
            return std::isalnum(uint8_t(c)) || c == '+' || c == '-' || c == '.';
          });
 }
@@ -141,7 +140,8 @@ bool is_absolute_uri(const std::string& uri) {
 std::string percent_decode(const std::string& uri) {
   std::string out;
   for (size_t i = 0; i < uri.size(); ++i) {
-    if (uri[i] == '%' && i + 2 < uri.size() && std::isxdigit(uint8_t(uri[i + 1])) && std::isxdigit(uint8_t(uri[i + 2]))) {
+    if (uri[i] == '%' && i + 2 < uri.size() && std::isxdigit(uint8_t(uri[i + 1])) &&
+        std::isxdigit(uint8_t(uri[i + 2]))) {
       out.push_back(char(std::stoi(uri.substr(i + 1, 2), nullptr, 16)));
       i += 2;
     } else {
@@ -196,7 +196,8 @@ Json parse_json(const char* begin, const char* end) {
   // The document is written back out by a recursive serializer: its depth is bounded as the
   // reader bounds it.
   try {
-    skelform::gltf::check_json_nesting(reinterpret_cast<const unsigned char*>(begin), static_cast<size_t>(end - begin), "the glTF JSON");
+    skelform::gltf::check_json_nesting(reinterpret_cast<const unsigned char*>(begin), static_cast<size_t>(end - begin),
+                                       "the glTF JSON");
   } catch (const skelform::gltf::GltfError& e) {
     invalid(e.what());
   }
@@ -220,14 +221,16 @@ Container parse_container(const std::string& bytes) {
   if (bytes.size() < kGlbHeaderSize + kChunkHeaderSize) invalid("truncated GLB: no room for the JSON chunk");
   if (read_u32(bytes, 4) != 2) invalid("unsupported GLB version " + std::to_string(read_u32(bytes, 4)));
   const uint64_t total = read_u32(bytes, 8);
-  if (total > bytes.size()) invalid("truncated GLB: header says " + std::to_string(total) + " bytes, file has " + std::to_string(bytes.size()));
+  if (total > bytes.size())
+    invalid("truncated GLB: header says " + std::to_string(total) + " bytes, file has " + std::to_string(bytes.size()));
   uint64_t at = kGlbHeaderSize;
   bool first = true;
   while (at + kChunkHeaderSize <= total) {
     const uint64_t length = read_u32(bytes, size_t(at));
     const uint32_t type = read_u32(bytes, size_t(at) + 4);
     const uint64_t data = at + kChunkHeaderSize;
-    if (data + length > total) invalid("bad GLB chunk length " + std::to_string(length) + " at byte " + std::to_string(at));
+    if (data + length > total)
+      invalid("bad GLB chunk length " + std::to_string(length) + " at byte " + std::to_string(at));
     if (first) {
       if (type != kChunkJson) invalid("GLB: the first chunk is not JSON");
       input.document = parse_json(bytes.data() + data, bytes.data() + data + length);
@@ -244,20 +247,25 @@ Container parse_container(const std::string& bytes) {
 
 // The top-level members the writer reads or edits must have their glTF types.
 void check_structure(const Json& document) {
-  for (const char* key : {"buffers", "bufferViews", "accessors", "meshes", "nodes", "skins", "images", "extensionsUsed", "extensionsRequired"}) {
-    if (document.contains(key) && !document[key].is_array()) invalid(std::string("glTF member '") + key + "' is not an array");
+  for (const char* key : {"buffers", "bufferViews", "accessors", "meshes", "nodes", "skins", "images", "extensionsUsed",
+                          "extensionsRequired"}) {
+    if (document.contains(key) && !document[key].is_array())
+      invalid(std::string("glTF member '") + key + "' is not an array");
   }
-  if (document.contains("extensions") && !document["extensions"].is_object()) invalid("glTF member 'extensions' is not an object");
+  if (document.contains("extensions") && !document["extensions"].is_object())
+    invalid("glTF member 'extensions' is not an object");
   for (const char* key : {"buffers", "images"}) {
     if (!document.contains(key)) continue;
     for (const Json& item : document[key]) {
       if (!item.is_object()) invalid(std::string("an element of '") + key + "' is not an object");
-      if (item.contains("uri") && !item["uri"].is_string()) invalid(std::string("a uri in '") + key + "' is not a string");
+      if (item.contains("uri") && !item["uri"].is_string())
+        invalid(std::string("a uri in '") + key + "' is not a string");
     }
   }
   if (document.contains("buffers")) {
     for (const Json& buffer : document["buffers"]) {
-      if (!buffer.contains("byteLength") || !buffer["byteLength"].is_number_integer() || buffer["byteLength"].get<int64_t>() < 0) {
+      if (!buffer.contains("byteLength") || !buffer["byteLength"].is_number_integer() ||
+          buffer["byteLength"].get<int64_t>() < 0) {
         invalid("a buffer has no valid byteLength");
       }
     }
@@ -274,8 +282,8 @@ enum class Buffer0Origin { none, bin_chunk, data_uri, external };
 
 struct Buffer0 {
   Buffer0Origin origin = Buffer0Origin::none;
-  std::string bytes;      // exactly byteLength bytes
-  fs::path external_path; // when origin == external
+  std::string bytes;       // exactly byteLength bytes
+  fs::path external_path;  // when origin == external
 };
 
 Buffer0 load_buffer0(const Container& input, const fs::path& resource_dir) {
@@ -302,7 +310,8 @@ Buffer0 load_buffer0(const Container& input, const fs::path& resource_dir) {
     buffer.bytes = input.bin_chunk;
   }
   if (buffer.bytes.size() < byte_length) {
-    invalid("buffer 0 holds " + std::to_string(buffer.bytes.size()) + " bytes, less than its byteLength " + std::to_string(byte_length));
+    invalid("buffer 0 holds " + std::to_string(buffer.bytes.size()) + " bytes, less than its byteLength " +
+            std::to_string(byte_length));
   }
   buffer.bytes.resize(size_t(byte_length));  // drop GLB padding: the original bytes, exactly
   return buffer;
@@ -335,12 +344,15 @@ const Json* array_element(const Json& document, const char* key, int index) {
 void check_deformable(const Json& document, const BakedDeformable& d, size_t i) {
   const Json* mesh = array_element(document, "meshes", d.mesh);
   require(mesh != nullptr && mesh->is_object(), i, "mesh " + std::to_string(d.mesh) + " is not in the input");
-  require(d.node == -1 || array_element(document, "nodes", d.node), i, "node " + std::to_string(d.node) + " is not in the input");
-  require(d.skin == -1 || array_element(document, "skins", d.skin), i, "skin " + std::to_string(d.skin) + " is not in the input");
+  require(d.node == -1 || array_element(document, "nodes", d.node), i,
+          "node " + std::to_string(d.node) + " is not in the input");
+  require(d.skin == -1 || array_element(document, "skins", d.skin), i,
+          "skin " + std::to_string(d.skin) + " is not in the input");
   require(!d.primitives.empty(), i, "no primitives");
   uint64_t position_count = 0;
   for (const int p : d.primitives) {
-    const bool present = mesh->contains("primitives") && (*mesh)["primitives"].is_array() && p >= 0 && size_t(p) < (*mesh)["primitives"].size();
+    const bool present = mesh->contains("primitives") && (*mesh)["primitives"].is_array() && p >= 0 &&
+                         size_t(p) < (*mesh)["primitives"].size();
     require(present, i, "primitive " + std::to_string(p) + " is not in mesh " + std::to_string(d.mesh));
     const Json& primitive = (*mesh)["primitives"][size_t(p)];
     const Json* accessor = nullptr;
@@ -348,18 +360,22 @@ void check_deformable(const Json& document, const BakedDeformable& d, size_t i) 
         primitive["attributes"].contains("POSITION") && primitive["attributes"]["POSITION"].is_number_integer()) {
       accessor = array_element(document, "accessors", primitive["attributes"]["POSITION"].get<int>());
     }
-    require(accessor && accessor->is_object() && accessor->contains("count") && (*accessor)["count"].is_number_unsigned(), i,
-            "primitive " + std::to_string(p) + " has no POSITION accessor with a count");
+    require(
+        accessor && accessor->is_object() && accessor->contains("count") && (*accessor)["count"].is_number_unsigned(),
+        i, "primitive " + std::to_string(p) + " has no POSITION accessor with a count");
     position_count += (*accessor)["count"].get<uint64_t>();
   }
-  require(std::set<int>(d.primitives.begin(), d.primitives.end()).size() == d.primitives.size(), i, "a primitive is listed twice");
+  require(std::set<int>(d.primitives.begin(), d.primitives.end()).size() == d.primitives.size(), i,
+          "a primitive is listed twice");
   require(d.dense_vertex_count == position_count, i,
-          "dense_vertex_count " + std::to_string(d.dense_vertex_count) + " differs from the primitives' POSITION count " + std::to_string(position_count));
+          "dense_vertex_count " + std::to_string(d.dense_vertex_count) +
+              " differs from the primitives' POSITION count " + std::to_string(position_count));
 
   const size_t control = d.control_positions.size();
   require(control > 0, i, "empty control mesh");
-  require(d.control_normals.size() == control && d.skeletal_positions.size() == control && d.medial_radius.size() == control, i,
-          "control normals, skeletal positions and medial radii must have one entry per control vertex");
+  require(d.control_normals.size() == control && d.skeletal_positions.size() == control &&
+              d.medial_radius.size() == control,
+          i, "control normals, skeletal positions and medial radii must have one entry per control vertex");
   require(!d.control_indices.empty() && d.control_indices.size() % 3 == 0 && all_below(d.control_indices, control), i,
           "control indices must be triangles of control vertices");
   require(d.joint_sets.size() == d.weight_sets.size(), i, "as many joint sets as weight sets");
@@ -368,26 +384,31 @@ void check_deformable(const Json& document, const BakedDeformable& d, size_t i) 
   for (float w : d.skelform_weight) require(w >= 0.0f && w <= 1.0f, i, "a skelform weight outside [0, 1]");
   require(d.skin == -1 || !d.joint_sets.empty(), i, "a skinned deformable needs at least one joint/weight set");
   for (size_t s = 0; s < d.joint_sets.size(); ++s) {
-    require(d.joint_sets[s].size() == control && d.weight_sets[s].size() == control, i, "joint/weight sets need one entry per control vertex");
+    require(d.joint_sets[s].size() == control && d.weight_sets[s].size() == control, i,
+            "joint/weight sets need one entry per control vertex");
     require(all_finite(d.weight_sets[s]), i, "non-finite weight");
   }
 
-  require(d.stencil_offsets.size() >= 2 && d.stencil_offsets.front() == 0, i, "stencil offsets must start at 0 and cover at least one refined vertex");
+  require(d.stencil_offsets.size() >= 2 && d.stencil_offsets.front() == 0, i,
+          "stencil offsets must start at 0 and cover at least one refined vertex");
   require(std::is_sorted(d.stencil_offsets.begin(), d.stencil_offsets.end()), i, "stencil offsets must not decrease");
-  require(d.stencil_offsets.back() == d.stencil_indices.size() && d.stencil_weights.size() == d.stencil_indices.size(), i,
-          "the last stencil offset must equal the number of stencil indices and weights");
+  require(d.stencil_offsets.back() == d.stencil_indices.size() && d.stencil_weights.size() == d.stencil_indices.size(),
+          i, "the last stencil offset must equal the number of stencil indices and weights");
   require(all_below(d.stencil_indices, control), i, "stencil index out of the control vertices");
   const size_t refined = d.stencil_offsets.size() - 1;
   require(!d.refined_indices.empty() && d.refined_indices.size() % 3 == 0 && all_below(d.refined_indices, refined), i,
           "refined indices must be triangles of refined vertices");
 
   const size_t dense = d.dense_vertex_count;
-  require(d.binding_triangle.size() == dense && d.binding_barycentric.size() == dense && d.binding_displacement.size() == dense &&
-              d.binding_residual.size() == dense, i, "binding arrays need one entry per dense vertex");
-  require(all_below(d.binding_triangle, d.refined_indices.size() / 3), i, "binding triangle out of the refined triangles");
+  require(d.binding_triangle.size() == dense && d.binding_barycentric.size() == dense &&
+              d.binding_displacement.size() == dense && d.binding_residual.size() == dense,
+          i, "binding arrays need one entry per dense vertex");
+  require(all_below(d.binding_triangle, d.refined_indices.size() / 3), i,
+          "binding triangle out of the refined triangles");
   require(all_finite(d.control_positions) && all_finite(d.control_normals) && all_finite(d.skeletal_positions) &&
               all_finite(d.medial_radius) && all_finite(d.stencil_weights) && all_finite(d.binding_barycentric) &&
-              all_finite(d.binding_displacement) && all_finite(d.binding_residual), i, "non-finite value");
+              all_finite(d.binding_displacement) && all_finite(d.binding_residual),
+          i, "non-finite value");
 }
 
 // ---------------------------------------------------------------------------------------
@@ -402,45 +423,58 @@ const format::ArraySpec& spec_of(const char* group, const char* name) {
 
 const char* accessor_type(int components) {
   switch (components) {
-    case 1: return "SCALAR";
-    case 2: return "VEC2";
-    case 3: return "VEC3";
-    case 4: return "VEC4";
+    case 1:
+      return "SCALAR";
+    case 2:
+      return "VEC2";
+    case 3:
+      return "VEC3";
+    case 4:
+      return "VEC4";
   }
   throw std::logic_error("unsupported accessor component count");
 }
 
 // What the writer's C++ element type stores: its glTF component type and count, and how it
 // is serialised. The spec check in add() keeps baked.h and extension_layout.h in step.
-template <typename T> struct Element;
-template <> struct Element<float> {
+template <typename T>
+struct Element;
+template <>
+struct Element<float> {
   static constexpr format::Component component = format::Component::float32;
   static constexpr int components = 1;
   static void append(std::string& out, float v) { append_f32(out, v); }
 };
-template <> struct Element<uint32_t> {
+template <>
+struct Element<uint32_t> {
   static constexpr format::Component component = format::Component::unsigned_int;
   static constexpr int components = 1;
   static void append(std::string& out, uint32_t v) { append_u32(out, v); }
 };
-template <> struct Element<glm::vec2> {
+template <>
+struct Element<glm::vec2> {
   static constexpr format::Component component = format::Component::float32;
   static constexpr int components = 2;
   static void append(std::string& out, const glm::vec2& v) { append_f32(out, v.x), append_f32(out, v.y); }
 };
-template <> struct Element<glm::vec3> {
+template <>
+struct Element<glm::vec3> {
   static constexpr format::Component component = format::Component::float32;
   static constexpr int components = 3;
-  static void append(std::string& out, const glm::vec3& v) { append_f32(out, v.x), append_f32(out, v.y), append_f32(out, v.z); }
+  static void append(std::string& out, const glm::vec3& v) {
+    append_f32(out, v.x), append_f32(out, v.y), append_f32(out, v.z);
+  }
 };
-template <> struct Element<std::array<float, 4>> {
+template <>
+struct Element<std::array<float, 4>> {
   static constexpr format::Component component = format::Component::float32;
   static constexpr int components = 4;
   static void append(std::string& out, const std::array<float, 4>& v) {
     for (const float c : v) append_f32(out, c);
   }
 };
-template <> struct Element<std::array<uint16_t, 4>> {
+template <>
+struct Element<std::array<uint16_t, 4>> {
   static constexpr format::Component component = format::Component::unsigned_short;
   static constexpr int components = 4;
   static void append(std::string& out, const std::array<uint16_t, 4>& v) {
@@ -530,7 +564,8 @@ Json extension_of_deformable(ArrayAppender& arrays, const BakedDeformable& d, si
   if (!d.skelform_weight.empty()) {
     Json blend = Json::object();
     blend[format::kSkelformWeight.name] =
-        arrays.add(format::kSkelformWeight, d.skelform_weight, prefix + format::kSkelformWeight.group + "." + format::kSkelformWeight.name);
+        arrays.add(format::kSkelformWeight, d.skelform_weight,
+                   prefix + format::kSkelformWeight.group + "." + format::kSkelformWeight.name);
     deformable[format::kSkelformWeight.group] = std::move(blend);
   }
   return deformable;
@@ -583,7 +618,8 @@ struct Baked {
   Buffer0 buffer0;  // original bytes + extension arrays; origin as in the input
 };
 
-Baked bake_document(const std::string& input_bytes, const fs::path& resource_dir, const std::vector<BakedDeformable>& deformables) {
+Baked bake_document(const std::string& input_bytes, const fs::path& resource_dir,
+                    const std::vector<BakedDeformable>& deformables) {
   Container input = parse_container(input_bytes);
   check_structure(input.document);
   Baked baked;
@@ -600,7 +636,8 @@ std::string to_glb(Baked& baked) {
 
 std::string lowercase_extension(const fs::path& path) {
   std::string extension = path.extension().string();
-  std::transform(extension.begin(), extension.end(), extension.begin(), [](unsigned char c) { return char(std::tolower(c)); });
+  std::transform(extension.begin(), extension.end(), extension.begin(),
+                 [](unsigned char c) { return char(std::tolower(c)); });
   return extension;
 }
 
@@ -608,7 +645,8 @@ bool is_same_file(const fs::path& a, const fs::path& b) { return same_file(a.str
 
 // Makes the input's relative URIs (buffers other than 0, images) resolve from the output's
 // directory; returns the files to copy (source, destination).
-std::vector<std::pair<fs::path, fs::path>> relocate_uris(Json& document, const fs::path& input_dir, const fs::path& output_dir) {
+std::vector<std::pair<fs::path, fs::path>> relocate_uris(Json& document, const fs::path& input_dir,
+                                                         const fs::path& output_dir) {
   std::vector<std::pair<fs::path, fs::path>> copies;
   std::error_code ec;
   if (fs::equivalent(input_dir, output_dir, ec)) return copies;
@@ -624,7 +662,8 @@ std::vector<std::pair<fs::path, fs::path>> relocate_uris(Json& document, const f
       copies.emplace_back(source, output_dir / relative);
     } else {
       const fs::path from_output = fs::relative(fs::weakly_canonical(source), fs::weakly_canonical(output_dir), ec);
-      item["uri"] = percent_encode_path(ec || from_output.empty() ? fs::weakly_canonical(source).generic_string() : from_output.generic_string());
+      item["uri"] = percent_encode_path(ec || from_output.empty() ? fs::weakly_canonical(source).generic_string()
+                                                                  : from_output.generic_string());
     }
   };
   if (document.contains("buffers")) {
@@ -638,31 +677,37 @@ std::vector<std::pair<fs::path, fs::path>> relocate_uris(Json& document, const f
 
 }  // namespace
 
-std::string baked_glb(const std::string& input, const std::string& resource_dir, const std::vector<BakedDeformable>& deformables) {
+std::string baked_glb(const std::string& input, const std::string& resource_dir,
+                      const std::vector<BakedDeformable>& deformables) {
   Baked baked = bake_document(input, resource_dir, deformables);
   return to_glb(baked);
 }
 
-void write_baked_gltf(const std::string& input_path, const std::vector<BakedDeformable>& deformables, const std::string& output_path) {
+void write_baked_gltf(const std::string& input_path, const std::vector<BakedDeformable>& deformables,
+                      const std::string& output_path) {
   const fs::path input(input_path), output(output_path);
   const std::string container = lowercase_extension(output);
   if (container != ".glb" && container != ".gltf") {
     throw Error(ErrorKind::usage, "output " + output_path + " must end in .glb or .gltf");
   }
-  if (is_same_file(input, output)) throw Error(ErrorKind::usage, "output " + output_path + " would overwrite the input");
+  if (is_same_file(input, output))
+    throw Error(ErrorKind::usage, "output " + output_path + " would overwrite the input");
   const fs::path input_dir = input.parent_path().empty() ? fs::path(".") : input.parent_path();
   const fs::path output_dir = output.parent_path().empty() ? fs::path(".") : output.parent_path();
 
   std::error_code ec;
-  if (!fs::is_directory(output_dir, ec)) throw Error(ErrorKind::io, "output directory " + output_dir.string() + " does not exist");
+  if (!fs::is_directory(output_dir, ec))
+    throw Error(ErrorKind::io, "output directory " + output_dir.string() + " does not exist");
 
   Baked baked = bake_document(read_whole_file(input), input_dir, deformables);
   const auto copies = relocate_uris(baked.document, input_dir, output_dir);
   auto refuse_overwrite = [&](const fs::path& target) {
-    const bool hits_input = is_same_file(target, input) ||
-                            (baked.buffer0.origin == Buffer0Origin::external && is_same_file(target, baked.buffer0.external_path)) ||
-                            std::any_of(copies.begin(), copies.end(), [&](const auto& c) { return is_same_file(target, c.first); });
-    if (hits_input) throw Error(ErrorKind::usage, "writing " + target.string() + " would overwrite a file the input uses");
+    const bool hits_input =
+        is_same_file(target, input) ||
+        (baked.buffer0.origin == Buffer0Origin::external && is_same_file(target, baked.buffer0.external_path)) ||
+        std::any_of(copies.begin(), copies.end(), [&](const auto& c) { return is_same_file(target, c.first); });
+    if (hits_input)
+      throw Error(ErrorKind::usage, "writing " + target.string() + " would overwrite a file the input uses");
   };
 
   std::string document_bytes;

@@ -46,7 +46,8 @@ std::vector<unsigned char> read_file(const std::string& path, bool glb) {
     void operator()(std::FILE* f) const { std::fclose(f); }
   };
   std::error_code size_error;
-  const uintmax_t size = std::filesystem::is_regular_file(path, size_error) ? std::filesystem::file_size(path, size_error) : 0;
+  const uintmax_t size =
+      std::filesystem::is_regular_file(path, size_error) ? std::filesystem::file_size(path, size_error) : 0;
   if (!size_error && size > kMaxInputFileBytes) throw Error(ErrorKind::unsupported, too_large(path));
   std::unique_ptr<std::FILE, Closer> file(std::fopen(path.c_str(), "rb"));
   if (!file) throw Error(ErrorKind::io, "cannot open " + path + ": " + std::strerror(errno));
@@ -56,8 +57,8 @@ std::vector<unsigned char> read_file(const std::string& path, bool glb) {
   unsigned char chunk[1 << 16];
   for (;;) {
     // The first 12 bytes alone first, so that a GLB's declared length bounds the rest.
-    const size_t request = static_cast<size_t>(std::min<uint64_t>(bytes.size() < 12 ? 12 - bytes.size() : sizeof chunk,
-                                                                   wanted - bytes.size()));
+    const size_t request = static_cast<size_t>(
+        std::min<uint64_t>(bytes.size() < 12 ? 12 - bytes.size() : sizeof chunk, wanted - bytes.size()));
     const size_t n = std::fread(chunk, 1, request, file.get());
     if (bytes.size() + n > kMaxInputFileBytes) throw Error(ErrorKind::unsupported, too_large(path));
     bytes.insert(bytes.end(), chunk, chunk + n);
@@ -81,8 +82,7 @@ void validate(const InputMesh& mesh, const std::string& name) {
   for (size_t i = 0; i < mesh.positions.size(); ++i) {
     const Vec3& p = mesh.positions[i];
     if (!std::isfinite(p.x) || !std::isfinite(p.y) || !std::isfinite(p.z))
-      throw Error(ErrorKind::invalid_input,
-                  name + ": vertex " + std::to_string(i) + " has a non-finite coordinate");
+      throw Error(ErrorKind::invalid_input, name + ": vertex " + std::to_string(i) + " has a non-finite coordinate");
   }
   const size_t vertex_count = mesh.positions.size();
   for (size_t t = 0; t < mesh.triangles.size(); ++t) {
@@ -115,8 +115,8 @@ InputMesh load_mesh_from_memory(const std::vector<unsigned char>& bytes, const s
   } else if (ext == ".off") {
     mesh = detail::load_off(text, name);
   } else {
-    throw Error(ErrorKind::unsupported, name + ": unsupported file type '" + extension +
-                                            "' (expected .gltf, .glb, .obj, .ply or .off)");
+    throw Error(ErrorKind::unsupported,
+                name + ": unsupported file type '" + extension + "' (expected .gltf, .glb, .obj, .ply or .off)");
   }
   mesh.source_path = name;
   validate(mesh, name);
@@ -130,8 +130,8 @@ std::vector<unsigned char> read_input_file(const std::string& path) {
 InputMesh load_mesh(const std::string& path, const LoadOptions& options) {
   const std::string ext = lower_extension(path);
   if (ext != ".gltf" && ext != ".glb" && ext != ".obj" && ext != ".ply" && ext != ".off")
-    throw Error(ErrorKind::unsupported, path + ": unsupported file type '" + ext +
-                                            "' (expected .gltf, .glb, .obj, .ply or .off)");
+    throw Error(ErrorKind::unsupported,
+                path + ": unsupported file type '" + ext + "' (expected .gltf, .glb, .obj, .ply or .off)");
   return load_mesh_from_memory(read_file(path, ext == ".glb"), ext, path, options);
 }
 

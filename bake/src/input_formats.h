@@ -38,10 +38,10 @@ inline void check_input_limits(size_t vertices, size_t triangles, const std::str
 
 // Fan-triangulates one polygon (v0, vi, vi+1), the convention OBJ/PLY/OFF writers expect for
 // the convex polygons they emit; checks the triangle limit first.
-inline void append_fan(const std::vector<uint32_t>& polygon, std::vector<Triangle>& triangles, const std::string& name) {
+inline void append_fan(const std::vector<uint32_t>& polygon, std::vector<Triangle>& triangles,
+                       const std::string& name) {
   check_input_limits(0, triangles.size() + (polygon.size() < 2 ? 0 : polygon.size() - 2), name);
-  for (size_t i = 1; i + 1 < polygon.size(); ++i)
-    triangles.push_back(Triangle{polygon[0], polygon[i], polygon[i + 1]});
+  for (size_t i = 1; i + 1 < polygon.size(); ++i) triangles.push_back(Triangle{polygon[0], polygon[i], polygon[i + 1]});
 }
 
 inline bool is_space(char c) { return c == ' ' || c == '\t' || c == '\r' || c == '\f' || c == '\v'; }

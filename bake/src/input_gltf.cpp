@@ -26,14 +26,22 @@ namespace {
 
 const char* mode_name(int mode) {
   switch (mode) {
-    case TINYGLTF_MODE_POINTS: return "POINTS";
-    case TINYGLTF_MODE_LINE: return "LINES";
-    case TINYGLTF_MODE_LINE_LOOP: return "LINE_LOOP";
-    case TINYGLTF_MODE_LINE_STRIP: return "LINE_STRIP";
-    case TINYGLTF_MODE_TRIANGLES: return "TRIANGLES";
-    case TINYGLTF_MODE_TRIANGLE_STRIP: return "TRIANGLE_STRIP";
-    case TINYGLTF_MODE_TRIANGLE_FAN: return "TRIANGLE_FAN";
-    default: return "an unknown mode";
+    case TINYGLTF_MODE_POINTS:
+      return "POINTS";
+    case TINYGLTF_MODE_LINE:
+      return "LINES";
+    case TINYGLTF_MODE_LINE_LOOP:
+      return "LINE_LOOP";
+    case TINYGLTF_MODE_LINE_STRIP:
+      return "LINE_STRIP";
+    case TINYGLTF_MODE_TRIANGLES:
+      return "TRIANGLES";
+    case TINYGLTF_MODE_TRIANGLE_STRIP:
+      return "TRIANGLE_STRIP";
+    case TINYGLTF_MODE_TRIANGLE_FAN:
+      return "TRIANGLE_FAN";
+    default:
+      return "an unknown mode";
   }
 }
 
@@ -50,8 +58,8 @@ std::vector<Triangle> triangulate(int mode, const std::vector<uint32_t>& corner,
   const size_t n = corner.size();
   if (mode == TINYGLTF_MODE_TRIANGLES) {
     if (n % 3 != 0)
-      throw Error(ErrorKind::invalid_input, what + ": TRIANGLES with " + std::to_string(n) +
-                                                " vertex indices, which is not a multiple of 3");
+      throw Error(ErrorKind::invalid_input,
+                  what + ": TRIANGLES with " + std::to_string(n) + " vertex indices, which is not a multiple of 3");
     triangles.reserve(n / 3);
     for (size_t i = 0; i + 2 < n; i += 3) triangles.push_back(Triangle{corner[i], corner[i + 1], corner[i + 2]});
   } else {
@@ -109,7 +117,8 @@ void append_skin_influences(const tinygltf::Model& model, const tinygltf::Primit
     if (joints == primitive.attributes.end()) invalid(what, "has WEIGHTS_" + set_name + " without JOINTS_" + set_name);
     if (weights == primitive.attributes.end()) invalid(what, "has JOINTS_" + set_name + " without WEIGHTS_" + set_name);
     const std::vector<glm::uvec4> joint_values = gltf::read_joints(model, joints->second, what + " JOINTS_" + set_name);
-    const std::vector<glm::dvec4> weight_values = gltf::read_weights(model, weights->second, what + " WEIGHTS_" + set_name);
+    const std::vector<glm::dvec4> weight_values =
+        gltf::read_weights(model, weights->second, what + " WEIGHTS_" + set_name);
     if (joint_values.size() != vertex_count || weight_values.size() != vertex_count)
       invalid(what, "JOINTS_" + set_name + "/WEIGHTS_" + set_name + " count differs from POSITION count");
     accessors.push_back("WEIGHTS_" + set_name + " (accessor " + std::to_string(weights->second) + ")");
@@ -129,15 +138,14 @@ void append_skin_influences(const tinygltf::Model& model, const tinygltf::Primit
       }
   }
   skin::SkinRepairReport report;
-  if (!skin::repair_skin(slot_joints.data(), slot_weights.data(), 4 * sets, mesh.positions.data() + first,
-                         vertex_count, report))
+  if (!skin::repair_skin(slot_joints.data(), slot_weights.data(), 4 * sets, mesh.positions.data() + first, vertex_count,
+                         report))
     invalid(what, "has vertices with no skin weight and no weighted vertex to take one from");
   std::string sets_named;
   for (size_t i = 0; i < accessors.size(); ++i) sets_named += (i ? ", " : "") + accessors[i];
   if (!report.non_finite.empty())
     mesh.warnings.push_back(what + " " + sets_named + ": " + std::to_string(report.non_finite.size()) +
-                            " vertices with a non-finite weight (" + element_list(report.non_finite) +
-                            "): read as 0");
+                            " vertices with a non-finite weight (" + element_list(report.non_finite) + "): read as 0");
   if (!report.inherited.empty())
     mesh.warnings.push_back(what + " " + sets_named + ": " + std::to_string(report.inherited.size()) +
                             " vertices without any weight (" + element_list(report.inherited) +
@@ -196,10 +204,10 @@ InputMesh load_gltf(const std::vector<unsigned char>& bytes, bool binary, const 
     if (node.mesh < 0) continue;
     if (static_cast<size_t>(node.mesh) >= mesh_count)
       invalid(name, "node " + std::to_string(n) + " refers to mesh " + std::to_string(node.mesh) + " (" +
-                              std::to_string(mesh_count) + " meshes)");
+                        std::to_string(mesh_count) + " meshes)");
     if (node.skin >= 0 && static_cast<size_t>(node.skin) >= model.skins.size())
       invalid(name, "node " + std::to_string(n) + " refers to skin " + std::to_string(node.skin) + " (" +
-                              std::to_string(model.skins.size()) + " skins)");
+                        std::to_string(model.skins.size()) + " skins)");
     const size_t m = static_cast<size_t>(node.mesh);
     if (any_node[m] < 0) any_node[m] = static_cast<int>(n);
     if (node.skin >= 0 && skinned_node[m] < 0) skinned_node[m] = static_cast<int>(n);
@@ -218,8 +226,9 @@ InputMesh load_gltf(const std::vector<unsigned char>& bytes, bool binary, const 
       const int mode = primitive.mode < 0 ? TINYGLTF_MODE_TRIANGLES : primitive.mode;
       if (mode == TINYGLTF_MODE_POINTS || mode == TINYGLTF_MODE_LINE || mode == TINYGLTF_MODE_LINE_LOOP ||
           mode == TINYGLTF_MODE_LINE_STRIP)
-        throw Error(ErrorKind::unsupported, what + " has mode " + mode_name(mode) +
-                                                "; only triangle primitives (TRIANGLES, TRIANGLE_STRIP, TRIANGLE_FAN) can be baked");
+        throw Error(ErrorKind::unsupported,
+                    what + " has mode " + mode_name(mode) +
+                        "; only triangle primitives (TRIANGLES, TRIANGLE_STRIP, TRIANGLE_FAN) can be baked");
       if (mode > TINYGLTF_MODE_TRIANGLE_FAN) invalid(what, "unknown primitive mode " + std::to_string(mode));
       const auto position = primitive.attributes.find("POSITION");
       if (position == primitive.attributes.end()) invalid(what, "has no POSITION attribute");
@@ -264,8 +273,9 @@ InputMesh load_gltf(const std::vector<unsigned char>& bytes, bool binary, const 
       mesh.positions.insert(mesh.positions.end(), positions.begin(), positions.end());
       mesh.triangles.insert(mesh.triangles.end(), triangles.begin(), triangles.end());
       mesh.primitives.push_back(record);
-      if (skin >= 0) append_skin_influences(model, primitive, model.skins[static_cast<size_t>(skin)].joints.size(),
-                                            positions.size(), what, mesh);
+      if (skin >= 0)
+        append_skin_influences(model, primitive, model.skins[static_cast<size_t>(skin)].joints.size(), positions.size(),
+                               what, mesh);
     }
   }
 

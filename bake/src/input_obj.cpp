@@ -41,8 +41,7 @@ InputMesh load_obj(std::string_view text, const std::string& name) {
         // Only the position index counts: v, v/vt, v//vn and v/vt/vn all start with it.
         const std::string_view position_part = token.substr(0, token.find('/'));
         int64_t index = 0;
-        if (!parse_int(position_part, index))
-          fail(name, scanner.line_number(), "bad face index " + quote_token(token));
+        if (!parse_int(position_part, index)) fail(name, scanner.line_number(), "bad face index " + quote_token(token));
         const int64_t defined = static_cast<int64_t>(mesh.positions.size());
         if (index == 0) fail(name, scanner.line_number(), "face index 0 (OBJ indices start at 1)");
         if (index < 0) {

@@ -52,14 +52,17 @@ InputMesh load_off(std::string_view text, const std::string& name) {
   if (!scanner.next_data_line()) throw Error(ErrorKind::invalid_input, name + ": empty file (no OFF header)");
   std::string_view keyword = scanner.token();
   const bool has_header = keyword.size() >= 3 && keyword.substr(keyword.size() - 3) == "OFF";
-  if (!has_header) fail(name, scanner.line_number(), "not an OFF file (expected an 'OFF' header, found " + quote_token(keyword) + ")");
+  if (!has_header)
+    fail(name, scanner.line_number(), "not an OFF file (expected an 'OFF' header, found " + quote_token(keyword) + ")");
   if (keyword.find('4') != std::string_view::npos || keyword.find('n') != std::string_view::npos)
-    throw Error(ErrorKind::unsupported, name + ": " + std::string(keyword) + " (4D or n-dimensional OFF) is not supported");
+    throw Error(ErrorKind::unsupported,
+                name + ": " + std::string(keyword) + " (4D or n-dimensional OFF) is not supported");
 
   // The counts may follow the keyword on the same line.
   std::string_view count_token = scanner.token();
   if (count_token.empty()) {
-    if (!scanner.next_data_line()) throw Error(ErrorKind::invalid_input, name + ": truncated after the OFF header (no counts line)");
+    if (!scanner.next_data_line())
+      throw Error(ErrorKind::invalid_input, name + ": truncated after the OFF header (no counts line)");
     count_token = scanner.token();
   }
   int64_t vertex_count = -1;
@@ -72,9 +75,9 @@ InputMesh load_off(std::string_view text, const std::string& name) {
   // Each vertex and face needs at least a few bytes: a count beyond the file size is a lie,
   // and reserving it would exhaust memory.
   if (static_cast<uint64_t>(vertex_count) > text.size() || static_cast<uint64_t>(face_count) > text.size())
-    fail(name, scanner.line_number(), "bad counts: " + std::to_string(vertex_count) + " vertices and " +
-                                          std::to_string(face_count) + " faces cannot fit in " +
-                                          std::to_string(text.size()) + " bytes");
+    fail(name, scanner.line_number(),
+         "bad counts: " + std::to_string(vertex_count) + " vertices and " + std::to_string(face_count) +
+             " faces cannot fit in " + std::to_string(text.size()) + " bytes");
   // Every face gives at least one triangle.
   check_input_limits(static_cast<size_t>(vertex_count), static_cast<size_t>(face_count), name);
   if (vertex_count == 0) throw Error(ErrorKind::invalid_input, name + ": no vertices (the counts line says 0)");
@@ -92,7 +95,8 @@ InputMesh load_off(std::string_view text, const std::string& name) {
       if (!parse_double(token, p[axis]))
         fail(name, scanner.line_number(), "vertex " + std::to_string(i) + ": bad coordinate " + quote_token(token));
       if (!std::isfinite(p[axis]))
-        fail(name, scanner.line_number(), "vertex " + std::to_string(i) + ": non-finite coordinate " + quote_token(token));
+        fail(name, scanner.line_number(),
+             "vertex " + std::to_string(i) + ": non-finite coordinate " + quote_token(token));
     }
     mesh.positions.push_back(p);
   }
@@ -105,20 +109,22 @@ InputMesh load_off(std::string_view text, const std::string& name) {
     int64_t corners = 0;
     const std::string_view corner_token = scanner.token();
     if (!parse_int(corner_token, corners) || corners < 3)
-      fail(name, scanner.line_number(), "face " + std::to_string(f) + ": bad vertex count " + quote_token(corner_token) +
-                                            " (at least 3 needed)");
+      fail(name, scanner.line_number(),
+           "face " + std::to_string(f) + ": bad vertex count " + quote_token(corner_token) + " (at least 3 needed)");
     polygon.clear();
     for (int64_t c = 0; c < corners; ++c) {
       const std::string_view token = scanner.token();
       int64_t index = -1;
       if (token.empty())
-        fail(name, scanner.line_number(), "face " + std::to_string(f) + ": " + std::to_string(corners) +
-                                              " vertices declared, " + std::to_string(c) + " given");
+        fail(name, scanner.line_number(),
+             "face " + std::to_string(f) + ": " + std::to_string(corners) + " vertices declared, " + std::to_string(c) +
+                 " given");
       if (!parse_int(token, index))
         fail(name, scanner.line_number(), "face " + std::to_string(f) + ": bad vertex index " + quote_token(token));
       if (index < 0 || index >= vertex_count)
-        fail(name, scanner.line_number(), "face " + std::to_string(f) + ": vertex index " + std::to_string(index) +
-                                              " out of range (" + std::to_string(vertex_count) + " vertices)");
+        fail(name, scanner.line_number(),
+             "face " + std::to_string(f) + ": vertex index " + std::to_string(index) + " out of range (" +
+                 std::to_string(vertex_count) + " vertices)");
       polygon.push_back(static_cast<uint32_t>(index));
     }
     append_fan(polygon, mesh.triangles, name);

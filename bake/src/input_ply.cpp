@@ -28,14 +28,19 @@ Scalar scalar_of(std::string_view name) {
 size_t size_of(Scalar s) {
   switch (s) {
     case Scalar::int8:
-    case Scalar::uint8: return 1;
+    case Scalar::uint8:
+      return 1;
     case Scalar::int16:
-    case Scalar::uint16: return 2;
+    case Scalar::uint16:
+      return 2;
     case Scalar::int32:
     case Scalar::uint32:
-    case Scalar::float32: return 4;
-    case Scalar::float64: return 8;
-    default: return 0;
+    case Scalar::float32:
+      return 4;
+    case Scalar::float64:
+      return 8;
+    default:
+      return 0;
   }
 }
 
@@ -109,12 +114,18 @@ class BodyReader {
     uint64_t bits = 0;
     for (size_t i = 0; i < size; ++i) bits |= uint64_t{raw[i]} << (8 * i);
     switch (type) {
-      case Scalar::int8: return static_cast<int8_t>(bits);
-      case Scalar::uint8: return static_cast<double>(bits);
-      case Scalar::int16: return static_cast<int16_t>(bits);
-      case Scalar::uint16: return static_cast<double>(bits);
-      case Scalar::int32: return static_cast<int32_t>(bits);
-      case Scalar::uint32: return static_cast<double>(bits);
+      case Scalar::int8:
+        return static_cast<int8_t>(bits);
+      case Scalar::uint8:
+        return static_cast<double>(bits);
+      case Scalar::int16:
+        return static_cast<int16_t>(bits);
+      case Scalar::uint16:
+        return static_cast<double>(bits);
+      case Scalar::int32:
+        return static_cast<int32_t>(bits);
+      case Scalar::uint32:
+        return static_cast<double>(bits);
       case Scalar::float32: {
         const uint32_t b32 = static_cast<uint32_t>(bits);
         float f;
@@ -126,7 +137,8 @@ class BodyReader {
         std::memcpy(&d, &bits, sizeof d);
         return d;
       }
-      default: return 0.0;
+      default:
+        return 0.0;
     }
   }
 
@@ -178,10 +190,14 @@ InputMesh load_ply(const std::vector<unsigned char>& bytes, const std::string& n
     }
     if (keyword == "format") {
       const std::string_view format = header.token();
-      if (format == "ascii") encoding = Encoding::ascii;
-      else if (format == "binary_little_endian") encoding = Encoding::binary_little_endian;
-      else if (format == "binary_big_endian") encoding = Encoding::binary_big_endian;
-      else fail(name, where + ": unknown format " + quote_token(format));
+      if (format == "ascii")
+        encoding = Encoding::ascii;
+      else if (format == "binary_little_endian")
+        encoding = Encoding::binary_little_endian;
+      else if (format == "binary_big_endian")
+        encoding = Encoding::binary_big_endian;
+      else
+        fail(name, where + ": unknown format " + quote_token(format));
       have_format = true;
     } else if (keyword == "element") {
       Element element;
@@ -261,7 +277,8 @@ InputMesh load_ply(const std::vector<unsigned char>& bytes, const std::string& n
         }
         const double count_value = reader.value(property.count_type, where);
         if (count_value < 0 || count_value > static_cast<double>(reader.remaining()))
-          fail(name, where.text() + ": list length " + std::to_string(static_cast<int64_t>(count_value)) + " is impossible");
+          fail(name,
+               where.text() + ": list length " + std::to_string(static_cast<int64_t>(count_value)) + " is impossible");
         const size_t count = static_cast<size_t>(count_value);
         const bool wanted = is_face && face_list == static_cast<int>(p);
         if (wanted) polygon.clear();
@@ -274,7 +291,8 @@ InputMesh load_ply(const std::vector<unsigned char>& bytes, const std::string& n
         }
         if (wanted) {
           if (polygon.size() < 3)
-            fail(name, where.text() + ": face with " + std::to_string(polygon.size()) + " vertices (at least 3 needed)");
+            fail(name,
+                 where.text() + ": face with " + std::to_string(polygon.size()) + " vertices (at least 3 needed)");
           append_fan(polygon, mesh.triangles, name);
           face_of_triangle.resize(mesh.triangles.size(), row);
         }

@@ -81,9 +81,12 @@ std::vector<CharacterJoint> reference_joints() {
     for (size_t i = 0; i < left.size(); ++i) {
       CharacterJoint j = left[i];
       j.name += side == 0 ? ".L" : ".R";
-      if (i == 0) j.parent = 2;
-      else if (j.parent == -2) j.parent = 0;
-      else j.parent += base;
+      if (i == 0)
+        j.parent = 2;
+      else if (j.parent == -2)
+        j.parent = 0;
+      else
+        j.parent += base;
       j.head.x *= mirror;
       j.tail.x *= mirror;
       joints.push_back(j);
@@ -137,7 +140,8 @@ struct RoundCone {
     const Vec3 radial = ap - x * axis;
     const double y = glm::length(radial);
     // On the axis (deep inside) any direction across it will do.
-    const Vec3 across = y > 0.0 ? radial / y : glm::normalize(glm::cross(axis, std::abs(axis.x) < 0.9 ? Vec3{1, 0, 0} : Vec3{0, 1, 0}));
+    const Vec3 across =
+        y > 0.0 ? radial / y : glm::normalize(glm::cross(axis, std::abs(axis.x) < 0.9 ? Vec3{1, 0, 0} : Vec3{0, 1, 0}));
     // Position along the lateral line's direction (c, -s): 0 at the tangent point on the
     // head circle, length * c at the tangent point on the tail circle.
     const double u = x * c - y * s;
@@ -282,7 +286,8 @@ void collapse_short_edges(TriangleMesh& mesh, const CharacterField& field, doubl
   std::priority_queue<Entry, std::vector<Entry>, std::greater<Entry>> heap;
   auto push = [&](uint32_t u, uint32_t v) {
     const double length = glm::length(P[u] - P[v]);
-    if (length < min_edge) heap.emplace(length, std::min(u, v), std::max(u, v), version[std::min(u, v)], version[std::max(u, v)]);
+    if (length < min_edge)
+      heap.emplace(length, std::min(u, v), std::max(u, v), version[std::min(u, v)], version[std::max(u, v)]);
   };
   for (const Triangle& t : T)
     for (int k = 0; k < 3; ++k)
@@ -517,8 +522,10 @@ TriangleMesh make_test_character(const CharacterOptions& options) {
           std::array<int, 4> in{}, out{};
           int n_in = 0, n_out = 0;
           for (int v = 0; v < 4; ++v) {
-            if (inside(corner_id[tet[v]])) in[n_in++] = v;
-            else out[n_out++] = v;
+            if (inside(corner_id[tet[v]]))
+              in[n_in++] = v;
+            else
+              out[n_out++] = v;
           }
           if (n_in == 0 || n_out == 0) continue;
           auto edge = [&](int a, int b) {  // a: tet-local inside vertex, b: outside

@@ -153,7 +153,8 @@ std::vector<SkinInfluence> character_skin_weights(const TriangleMesh& mesh, cons
                                                   const std::vector<CharacterJoint>& joints) {
   if (normals.size() != mesh.positions.size())
     throw Error(ErrorKind::usage, "procedural rig: one normal per vertex expected");
-  if (joints.empty() || joints.size() > 65535) throw Error(ErrorKind::usage, "procedural rig: 1 to 65535 joints expected");
+  if (joints.empty() || joints.size() > 65535)
+    throw Error(ErrorKind::usage, "procedural rig: 1 to 65535 joints expected");
   std::vector<SkinInfluence> skin(mesh.positions.size());
   std::vector<CapsuleDistance> distance(joints.size());
   std::vector<std::pair<double, uint16_t>> candidates;
@@ -172,8 +173,9 @@ std::vector<SkinInfluence> character_skin_weights(const TriangleMesh& mesh, cons
       const double weight = j == nearest ? 1.0 : std::exp(-excess * excess) * facing;
       if (weight > 1e-4) candidates.emplace_back(weight, uint16_t(j));
     }
-    std::sort(candidates.begin(), candidates.end(),
-              [](const auto& a, const auto& b) { return a.first != b.first ? a.first > b.first : a.second < b.second; });
+    std::sort(candidates.begin(), candidates.end(), [](const auto& a, const auto& b) {
+      return a.first != b.first ? a.first > b.first : a.second < b.second;
+    });
     const size_t kept = std::min<size_t>(4, candidates.size());
     double total = 0;
     for (size_t k = 0; k < kept; ++k) total += candidates[k].first;
@@ -191,12 +193,14 @@ std::vector<SkinInfluence> character_skin_weights(const TriangleMesh& mesh, cons
 }
 
 std::vector<glm::dmat4> joint_world_transforms(const std::vector<CharacterJoint>& joints, const RigPose& pose) {
-  if (pose.rotations.size() != joints.size()) throw Error(ErrorKind::usage, "procedural rig: one rotation per joint expected");
+  if (pose.rotations.size() != joints.size())
+    throw Error(ErrorKind::usage, "procedural rig: one rotation per joint expected");
   std::vector<glm::dmat4> world(joints.size());
   for (size_t j = 0; j < joints.size(); ++j) {
     const int parent = joints[j].parent;
     if (parent >= int(j)) throw Error(ErrorKind::usage, "procedural rig: a parent must come before its children");
-    const Vec3 translation = parent < 0 ? joints[j].head + pose.root_offset : joints[j].head - joints[size_t(parent)].head;
+    const Vec3 translation =
+        parent < 0 ? joints[j].head + pose.root_offset : joints[j].head - joints[size_t(parent)].head;
     const glm::dmat4 local = glm::translate(glm::dmat4(1.0), translation) * glm::mat4_cast(pose.rotations[j]);
     world[j] = parent < 0 ? local : world[size_t(parent)] * local;
   }
@@ -278,16 +282,23 @@ std::string rigged_character_glb(const RiggedCharacter& character) {
   for (const Triangle& t : character.mesh.triangles) indices.insert(indices.end(), t.begin(), t.end());
   json attributes = {{"POSITION", glb.add_floats(positions, "VEC3", 3, 34962, true)},
                      {"NORMAL", glb.add_floats(normals, "VEC3", 3, 34962, false)}};
-  attributes["JOINTS_0"] = glb.add_accessor({{"bufferView", glb.add_view(joint_indices.data(), joint_indices.size() * 2, 34962)},
-                                             {"componentType", 5123}, {"count", vertex_count}, {"type", "VEC4"}});
+  attributes["JOINTS_0"] =
+      glb.add_accessor({{"bufferView", glb.add_view(joint_indices.data(), joint_indices.size() * 2, 34962)},
+                        {"componentType", 5123},
+                        {"count", vertex_count},
+                        {"type", "VEC4"}});
   attributes["WEIGHTS_0"] = glb.add_floats(weights, "VEC4", 4, 34962, false);
   const int index_accessor = glb.add_accessor({{"bufferView", glb.add_view(indices.data(), indices.size() * 4, 34963)},
-                                               {"componentType", 5125}, {"count", indices.size()}, {"type", "SCALAR"}});
-  glb.document["meshes"] = json::array(
-      {{{"name", "character"}, {"primitives", {{{"attributes", attributes}, {"indices", index_accessor}, {"material", 0}}}}}});
+                                               {"componentType", 5125},
+                                               {"count", indices.size()},
+                                               {"type", "SCALAR"}});
+  glb.document["meshes"] =
+      json::array({{{"name", "character"},
+                    {"primitives", {{{"attributes", attributes}, {"indices", index_accessor}, {"material", 0}}}}}});
   glb.document["materials"] = json::array(
-      {{{"name", "skin"}, {"pbrMetallicRoughness", {{"baseColorFactor", {0.8, 0.62, 0.5, 1.0}}, {"metallicFactor", 0.0},
-                                                      {"roughnessFactor", 0.7}}}}});
+      {{{"name", "skin"},
+        {"pbrMetallicRoughness",
+         {{"baseColorFactor", {0.8, 0.62, 0.5, 1.0}}, {"metallicFactor", 0.0}, {"roughnessFactor", 0.7}}}}});
 
   // Node 0: the skinned mesh; nodes 1..joint_count: the joints in rig order.
   json nodes = json::array({{{"name", "character"}, {"mesh", 0}, {"skin", 0}}});
@@ -307,7 +318,9 @@ std::string rigged_character_glb(const RiggedCharacter& character) {
   glb.document["nodes"] = nodes;
   json skin_joints = json::array();
   for (size_t j = 0; j < joint_count; ++j) skin_joints.push_back(j + 1);
-  glb.document["skins"] = json::array({{{"name", "character rig"}, {"joints", skin_joints}, {"skeleton", 1},
+  glb.document["skins"] = json::array({{{"name", "character rig"},
+                                        {"joints", skin_joints},
+                                        {"skeleton", 1},
                                         {"inverseBindMatrices", glb.add_floats(inverse_bind, "MAT4", 16, 0, false)}}});
   glb.document["scenes"] = json::array({{{"nodes", {0, 1}}}});
 
@@ -326,8 +339,8 @@ std::string rigged_character_glb(const RiggedCharacter& character) {
         const glm::dquat q = glm::normalize(pose.rotations[j]);
         rotations.insert(rotations.end(), {float(q.x), float(q.y), float(q.z), float(q.w)});  // glTF order
       }
-      samplers.push_back({{"input", input}, {"output", glb.add_floats(rotations, "VEC4", 4, 0, false)},
-                          {"interpolation", "LINEAR"}});
+      samplers.push_back(
+          {{"input", input}, {"output", glb.add_floats(rotations, "VEC4", 4, 0, false)}, {"interpolation", "LINEAR"}});
       channels.push_back({{"sampler", samplers.size() - 1}, {"target", {{"node", j + 1}, {"path", "rotation"}}}});
     }
     std::vector<float> root_translation;
@@ -335,7 +348,8 @@ std::string rigged_character_glb(const RiggedCharacter& character) {
       const Vec3 t = character.joints[0].head + pose.root_offset;
       root_translation.insert(root_translation.end(), {float(t.x), float(t.y), float(t.z)});
     }
-    samplers.push_back({{"input", input}, {"output", glb.add_floats(root_translation, "VEC3", 3, 0, false)},
+    samplers.push_back({{"input", input},
+                        {"output", glb.add_floats(root_translation, "VEC3", 3, 0, false)},
                         {"interpolation", "LINEAR"}});
     channels.push_back({{"sampler", samplers.size() - 1}, {"target", {{"node", 1}, {"path", "translation"}}}});
     animations.push_back({{"name", animation.name}, {"samplers", samplers}, {"channels", channels}});

@@ -15,8 +15,8 @@ constexpr double kPi = 3.14159265358979323846;
 
 // Rings of `segments` vertices stacked along z, closed by one vertex at each end. Each ring
 // is given by (z, ring radius); the caps' pole vertices are at z_bottom and z_top.
-TriangleMesh revolve_rings(const std::vector<std::pair<double, double>>& rings, double z_bottom,
-                           double z_top, int segments) {
+TriangleMesh revolve_rings(const std::vector<std::pair<double, double>>& rings, double z_bottom, double z_top,
+                           int segments) {
   TriangleMesh mesh;
   const uint32_t n = static_cast<uint32_t>(segments);
   mesh.positions.push_back({0.0, 0.0, z_bottom});
@@ -47,8 +47,7 @@ TriangleMesh revolve_rings(const std::vector<std::pair<double, double>>& rings, 
 
 }  // namespace
 
-TriangleMesh make_capsule(double radius, double cylinder_length, int segments, int cylinder_rings,
-                          int cap_rings) {
+TriangleMesh make_capsule(double radius, double cylinder_length, int segments, int cylinder_rings, int cap_rings) {
   if (radius <= 0 || cylinder_length < 0 || segments < 3 || cylinder_rings < 1 || cap_rings < 1)
     throw Error(ErrorKind::usage, "make_capsule: invalid parameters");
   const double half = 0.5 * cylinder_length;
@@ -80,11 +79,11 @@ TriangleMesh make_icosphere(double radius, int subdivisions) {
   if (radius <= 0 || subdivisions < 0) throw Error(ErrorKind::usage, "make_icosphere: invalid parameters");
   const double t = (1.0 + std::sqrt(5.0)) / 2.0;
   TriangleMesh mesh;
-  mesh.positions = {{-1, t, 0}, {1, t, 0}, {-1, -t, 0}, {1, -t, 0}, {0, -1, t}, {0, 1, t},
-                    {0, -1, -t}, {0, 1, -t}, {t, 0, -1}, {t, 0, 1}, {-t, 0, -1}, {-t, 0, 1}};
-  mesh.triangles = {{0, 11, 5}, {0, 5, 1}, {0, 1, 7}, {0, 7, 10}, {0, 10, 11}, {1, 5, 9}, {5, 11, 4},
-                    {11, 10, 2}, {10, 7, 6}, {7, 1, 8}, {3, 9, 4}, {3, 4, 2}, {3, 2, 6}, {3, 6, 8},
-                    {3, 8, 9}, {4, 9, 5}, {2, 4, 11}, {6, 2, 10}, {8, 6, 7}, {9, 8, 1}};
+  mesh.positions = {{-1, t, 0},  {1, t, 0},  {-1, -t, 0}, {1, -t, 0}, {0, -1, t},  {0, 1, t},
+                    {0, -1, -t}, {0, 1, -t}, {t, 0, -1},  {t, 0, 1},  {-t, 0, -1}, {-t, 0, 1}};
+  mesh.triangles = {{0, 11, 5},  {0, 5, 1},  {0, 1, 7},  {0, 7, 10}, {0, 10, 11}, {1, 5, 9}, {5, 11, 4},
+                    {11, 10, 2}, {10, 7, 6}, {7, 1, 8},  {3, 9, 4},  {3, 4, 2},   {3, 2, 6}, {3, 6, 8},
+                    {3, 8, 9},   {4, 9, 5},  {2, 4, 11}, {6, 2, 10}, {8, 6, 7},   {9, 8, 1}};
   for (int level = 0; level < subdivisions; ++level) {
     std::map<std::pair<uint32_t, uint32_t>, uint32_t> midpoint;
     auto mid = [&](uint32_t a, uint32_t b) {

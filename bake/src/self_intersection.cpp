@@ -19,8 +19,8 @@ struct Box {
 };
 
 bool boxes_overlap(const Box& p, const Box& q) {
-  return p.min.x <= q.max.x && q.min.x <= p.max.x && p.min.y <= q.max.y && q.min.y <= p.max.y &&
-         p.min.z <= q.max.z && q.min.z <= p.max.z;
+  return p.min.x <= q.max.x && q.min.x <= p.max.x && p.min.y <= q.max.y && q.min.y <= p.max.y && p.min.z <= q.max.z &&
+         q.min.z <= p.max.z;
 }
 
 }  // namespace

@@ -126,9 +126,9 @@ Delaunay delaunay_cells(const std::vector<Vec3>& points) {
         continue;
       }
       const uint32_t* corners = result.corners.data() + cell.first_corner;
-      cell.circumcentre = cell.corner_count == 4
-                              ? circumcentre(points[corners[0]], points[corners[1]], points[corners[2]], points[corners[3]])
-                              : cospherical_centre(points, corners, cell.corner_count);
+      cell.circumcentre = cell.corner_count == 4 ? circumcentre(points[corners[0]], points[corners[1]],
+                                                                points[corners[2]], points[corners[3]])
+                                                 : cospherical_centre(points, corners, cell.corner_count);
       result.cells.push_back(cell);
     }
   } catch (const orgQhull::QhullError& error) {
@@ -253,7 +253,8 @@ SkeletalMesh extract_skeleton(const TriangleMesh& mesh, const SkeletonOptions& o
     double max_offset = 0.0;
     if (best > 0.0) {
       const Vec3 unit_normal = span_normal / best;
-      for (const Vec3& p : unique_points) max_offset = std::max(max_offset, std::abs(glm::dot(p - origin, unit_normal)));
+      for (const Vec3& p : unique_points)
+        max_offset = std::max(max_offset, std::abs(glm::dot(p - origin, unit_normal)));
     }
     if (!(max_offset > 1e-12 * scale))
       throw Error(ErrorKind::invalid_input, "skeleton: all triangle vertices are coplanar (no enclosed volume)");

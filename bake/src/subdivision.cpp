@@ -45,8 +45,8 @@ SubdivisionStencils identity_stencils(const TriangleMesh& control, const std::ve
 
 SubdivisionStencils build_loop_stencils(const TriangleMesh& control, int level) {
   if (level < 0 || level > kMaxLevel)
-    throw Error(ErrorKind::usage, "subdivision level " + std::to_string(level) + " is outside [0, " +
-                                      std::to_string(kMaxLevel) + "]");
+    throw Error(ErrorKind::usage,
+                "subdivision level " + std::to_string(level) + " is outside [0, " + std::to_string(kMaxLevel) + "]");
   if (control.positions.empty() || control.triangles.empty())
     throw Error(ErrorKind::invalid_input, "cannot subdivide an empty control mesh");
   if (control.positions.size() > static_cast<size_t>(std::numeric_limits<int>::max()) ||
@@ -97,8 +97,8 @@ SubdivisionStencils build_loop_stencils(const TriangleMesh& control, int level) 
   Far::TopologyRefiner::UniformOptions uniform(level);
   refiner->RefineUniform(uniform);
   if (refiner->GetMaxLevel() != level)
-    throw Error(ErrorKind::invalid_input, "OpenSubdiv could not refine the control mesh to level " +
-                                              std::to_string(level));
+    throw Error(ErrorKind::invalid_input,
+                "OpenSubdiv could not refine the control mesh to level " + std::to_string(level));
 
   // Stencils from the control vertices to the last level only, with the intermediate levels
   // factorized away: the runtime never sees levels 1..k-1. StencilTableReal<float> is used
@@ -144,11 +144,9 @@ SubdivisionStencils build_loop_stencils(const TriangleMesh& control, int level) 
   stencils.refined_triangles.resize(static_cast<size_t>(last.GetNumFaces()));
   for (int f = 0; f < last.GetNumFaces(); ++f) {
     const Far::ConstIndexArray corners = last.GetFaceVertices(f);
-    if (corners.size() != 3)
-      throw Error(ErrorKind::invalid_input, "Loop refinement produced a non-triangular face");
-    stencils.refined_triangles[static_cast<size_t>(f)] = {static_cast<uint32_t>(corners[0]),
-                                                          static_cast<uint32_t>(corners[1]),
-                                                          static_cast<uint32_t>(corners[2])};
+    if (corners.size() != 3) throw Error(ErrorKind::invalid_input, "Loop refinement produced a non-triangular face");
+    stencils.refined_triangles[static_cast<size_t>(f)] = {
+        static_cast<uint32_t>(corners[0]), static_cast<uint32_t>(corners[1]), static_cast<uint32_t>(corners[2])};
   }
   return stencils;
 }

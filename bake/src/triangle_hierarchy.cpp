@@ -52,7 +52,8 @@ TriangleHierarchy build_triangle_hierarchy(const TriangleMesh& mesh) {
   for (size_t t = 0; t < triangle_count; ++t) {
     for (uint32_t corner : mesh.triangles[t]) boxes[t].grow(mesh.positions[corner]);
     centroids[t] = (mesh.positions[mesh.triangles[t][0]] + mesh.positions[mesh.triangles[t][1]] +
-                    mesh.positions[mesh.triangles[t][2]]) / 3.0;
+                    mesh.positions[mesh.triangles[t][2]]) /
+                   3.0;
   }
   tree.triangle_order.resize(triangle_count);
   std::iota(tree.triangle_order.begin(), tree.triangle_order.end(), 0u);

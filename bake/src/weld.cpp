@@ -62,8 +62,7 @@ WeldedMesh weld(const InputMesh& input) {
   index_of_position.reserve(vertex_count);
   for (size_t i = 0; i < vertex_count; ++i) {
     const Vec3& p = input.positions[i];
-    auto [it, inserted] =
-        index_of_position.try_emplace(key_of(p), static_cast<uint32_t>(out.mesh.positions.size()));
+    auto [it, inserted] = index_of_position.try_emplace(key_of(p), static_cast<uint32_t>(out.mesh.positions.size()));
     if (inserted) {
       out.mesh.positions.push_back(p);
       out.original_of_welded.push_back(static_cast<uint32_t>(i));
@@ -81,8 +80,7 @@ WeldedMesh weld(const InputMesh& input) {
       const uint32_t original = input.triangles[t][corner];
       if (original >= vertex_count)
         throw Error(ErrorKind::invalid_input, "weld: triangle " + std::to_string(t) + " uses vertex " +
-                                                  std::to_string(original) + " of " +
-                                                  std::to_string(vertex_count));
+                                                  std::to_string(original) + " of " + std::to_string(vertex_count));
       welded[corner] = out.welded_of_original[original];
     }
     if (welded[0] == welded[1] || welded[1] == welded[2] || welded[0] == welded[2]) {

@@ -40,11 +40,12 @@ double signed_solid_angle(const Vec3& a, const Vec3& b, const Vec3& c) {
 // exact per triangle (a_t its area, c_t its centroid; the second moment of a triangle with
 // corners v relative to p is a_t/12 (Σ v vᵀ + (Σ v)(Σ v)ᵀ)).
 struct FarField {
-  Vec3 centre{0.0};                      // p
-  double radius = 0.0;                   // largest distance from p to a corner of the node
-  Vec3 area_vector{0.0};                 // T1
-  glm::dmat3 dipole_moment{0.0};         // T2: column j holds Σ_t a_t n_tj (c_t − p)
-  std::array<glm::dmat3, 3> quadrupole{glm::dmat3(0.0), glm::dmat3(0.0), glm::dmat3(0.0)};  // T3: [k] holds Σ_t n_tk ∫_t d dᵀ dA
+  Vec3 centre{0.0};               // p
+  double radius = 0.0;            // largest distance from p to a corner of the node
+  Vec3 area_vector{0.0};          // T1
+  glm::dmat3 dipole_moment{0.0};  // T2: column j holds Σ_t a_t n_tj (c_t − p)
+  std::array<glm::dmat3, 3> quadrupole{glm::dmat3(0.0), glm::dmat3(0.0),
+                                       glm::dmat3(0.0)};  // T3: [k] holds Σ_t n_tk ∫_t d dᵀ dA
 
   // Ω of the node's triangles at a query at r = p − query, |r|² = squared > 0.
   double solid_angle(const Vec3& r, double squared) const {
@@ -82,7 +83,9 @@ struct WindingTree {
     build_far_fields();
   }
 
-  Vec3 corner(uint32_t triangle, int k) const { return mesh.positions[mesh.triangles[triangle][static_cast<size_t>(k)]]; }
+  Vec3 corner(uint32_t triangle, int k) const {
+    return mesh.positions[mesh.triangles[triangle][static_cast<size_t>(k)]];
+  }
 
   // Every node covers a contiguous run of triangle_order; children come after their parent,
   // so a reverse sweep sees both children of a node before the node.
@@ -128,8 +131,9 @@ struct WindingTree {
       if (triangle_area > 0.0) {
         const Vec3 unit_normal = area_vector / triangle_area;
         const Vec3 da = a - f.centre, db = b - f.centre, dc = c - f.centre, sum = da + db + dc;
-        const glm::dmat3 second_moment = (triangle_area / 12.0) * (glm::outerProduct(da, da) + glm::outerProduct(db, db) +
-                                                                   glm::outerProduct(dc, dc) + glm::outerProduct(sum, sum));
+        const glm::dmat3 second_moment =
+            (triangle_area / 12.0) * (glm::outerProduct(da, da) + glm::outerProduct(db, db) +
+                                      glm::outerProduct(dc, dc) + glm::outerProduct(sum, sum));
         for (int k = 0; k < 3; ++k) f.quadrupole[static_cast<size_t>(k)] += unit_normal[k] * second_moment;
       }
       for (const Vec3& p : {a, b, c}) f.radius = std::max(f.radius, glm::length(p - f.centre));
@@ -197,8 +201,8 @@ std::vector<double> winding_numbers(const TriangleMesh& mesh, const std::vector<
     const Vec3& query = queries[q];
     double total_solid_angle = 0.0;
     for (const Triangle& t : mesh.triangles) {
-      total_solid_angle += signed_solid_angle(mesh.positions[t[0]] - query, mesh.positions[t[1]] - query,
-                                              mesh.positions[t[2]] - query);
+      total_solid_angle +=
+          signed_solid_angle(mesh.positions[t[0]] - query, mesh.positions[t[1]] - query, mesh.positions[t[2]] - query);
     }
     winding[q] = total_solid_angle / (4.0 * kPi);
   }

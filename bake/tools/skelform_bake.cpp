@@ -73,13 +73,19 @@ const char* const kExitCodes =
 std::string usage() {
   const std::string limits =
       "Limits (beyond them the input is refused, exit 2; decimate or split the mesh first):\n"
-      "  input file        " + std::to_string(kMaxInputFileBytes >> 20) + " MiB (a pipe or device is read until it passes this)\n"
-      "  input mesh        " + std::to_string(kMaxInputTriangles) + " triangles, " + std::to_string(kMaxInputVertices) +
+      "  input file        " +
+      std::to_string(kMaxInputFileBytes >> 20) +
+      " MiB (a pipe or device is read until it passes this)\n"
+      "  input mesh        " +
+      std::to_string(kMaxInputTriangles) + " triangles, " + std::to_string(kMaxInputVertices) +
       " vertices\n"
-      "  glTF              JSON nested at most " + std::to_string(skelform::bake::gltf::kMaxJsonNesting) +
-      " deep; at most " + std::to_string(kMaxInfluenceSets) + " JOINTS_n sets per primitive\n"
+      "  glTF              JSON nested at most " +
+      std::to_string(skelform::bake::gltf::kMaxJsonNesting) + " deep; at most " + std::to_string(kMaxInfluenceSets) +
+      " JOINTS_n sets per primitive\n"
       "  PLY               the rows of all elements together fit in the body's bytes\n"
-      "  skeleton          " + std::to_string(kMaxSkeletonVertices) + " vertices: the welded input of the skeleton\n"
+      "  skeleton          " +
+      std::to_string(kMaxSkeletonVertices) +
+      " vertices: the welded input of the skeleton\n"
       "                    command; the control mesh of a bake (lower --target-triangles)\n"
       "\n";
   return kUsage + limits + kExitCodes;
@@ -126,16 +132,26 @@ Arguments parse_arguments(int argc, char** argv) {
       if (i + 1 >= argc) throw Error(ErrorKind::usage, arg + " needs a value");
       return argv[++i];
     };
-    if (arg == "-o" || arg == "--output") args.output = value();
-    else if (arg == "--tangent-flow-steps") args.tangent_flow_steps = parse_int(arg, value(), 0, 100000);
-    else if (arg == "--target-triangles") args.target_triangles = parse_int(arg, value(), 16, 10000000);
-    else if (arg == "--level") args.level = parse_int(arg, value(), 0, 6);
-    else if (arg == "--voronoi-points") args.voronoi_points = value();
-    else if (arg == "--all-meshes") args.all_meshes = true;
-    else if (arg == "-v" || arg == "--verbose") args.verbose = true;
-    else if (arg == "-q" || arg == "--quiet") args.quiet = true;
-    else if (arg.size() > 1 && arg[0] == '-') throw Error(ErrorKind::usage, "unknown option " + arg);
-    else positional.push_back(arg);
+    if (arg == "-o" || arg == "--output")
+      args.output = value();
+    else if (arg == "--tangent-flow-steps")
+      args.tangent_flow_steps = parse_int(arg, value(), 0, 100000);
+    else if (arg == "--target-triangles")
+      args.target_triangles = parse_int(arg, value(), 16, 10000000);
+    else if (arg == "--level")
+      args.level = parse_int(arg, value(), 0, 6);
+    else if (arg == "--voronoi-points")
+      args.voronoi_points = value();
+    else if (arg == "--all-meshes")
+      args.all_meshes = true;
+    else if (arg == "-v" || arg == "--verbose")
+      args.verbose = true;
+    else if (arg == "-q" || arg == "--quiet")
+      args.quiet = true;
+    else if (arg.size() > 1 && arg[0] == '-')
+      throw Error(ErrorKind::usage, "unknown option " + arg);
+    else
+      positional.push_back(arg);
   }
   if (positional.empty()) throw Error(ErrorKind::usage, "missing command (see --help)");
   if (positional[0] == "skeleton") {
@@ -144,15 +160,19 @@ Arguments parse_arguments(int argc, char** argv) {
     args.input = positional[1];
   } else {
     args.command = "bake";
-    if (positional.size() != 1) throw Error(ErrorKind::usage, "expected one input file, got " + std::to_string(positional.size()));
+    if (positional.size() != 1)
+      throw Error(ErrorKind::usage, "expected one input file, got " + std::to_string(positional.size()));
     args.input = positional[0];
     if (!args.voronoi_points.empty()) throw Error(ErrorKind::usage, "--voronoi-points belongs to the skeleton command");
-    if (!has_extension(args.input, {".gltf", ".glb"})) throw Error(ErrorKind::usage, "baking needs a .gltf or .glb input (the skeleton command takes OBJ/PLY/OFF)");
-    if (!has_extension(args.output, {".gltf", ".glb"})) throw Error(ErrorKind::usage, "the baked output must be .gltf or .glb");
+    if (!has_extension(args.input, {".gltf", ".glb"}))
+      throw Error(ErrorKind::usage, "baking needs a .gltf or .glb input (the skeleton command takes OBJ/PLY/OFF)");
+    if (!has_extension(args.output, {".gltf", ".glb"}))
+      throw Error(ErrorKind::usage, "the baked output must be .gltf or .glb");
   }
   if (args.output.empty()) throw Error(ErrorKind::usage, "missing -o OUTPUT");
   for (const std::string& out : {args.output, args.voronoi_points}) {
-    if (!out.empty() && same_file(out, args.input)) throw Error(ErrorKind::usage, "refusing to overwrite the input file " + args.input);
+    if (!out.empty() && same_file(out, args.input))
+      throw Error(ErrorKind::usage, "refusing to overwrite the input file " + args.input);
   }
   return args;
 }
@@ -188,7 +208,8 @@ int run_skeleton(const Arguments& args) {
   const InputMesh input = load_mesh(args.input, load_options);
   // Repaired exporter defects are reported even with --quiet: the output differs from what
   // a strict reading would give.
-  for (const std::string& warning : input.warnings) std::fprintf(stderr, "skelform-bake: warning: %s\n", warning.c_str());
+  for (const std::string& warning : input.warnings)
+    std::fprintf(stderr, "skelform-bake: warning: %s\n", warning.c_str());
   timer.stop("load");
 
   timer.start();
@@ -221,8 +242,8 @@ int run_skeleton(const Arguments& args) {
   write_file_atomically(args.output, obj_text(skeletal_mesh, {"skelform skeletal mesh of " + args.input,
                                                               "one vertex per welded input vertex, same order"}));
   if (!args.voronoi_points.empty()) {
-    write_file_atomically(args.voronoi_points,
-                          obj_points_text(skeleton.kept_voronoi_vertices, {"kept inner Voronoi vertices of " + args.input}));
+    write_file_atomically(args.voronoi_points, obj_points_text(skeleton.kept_voronoi_vertices,
+                                                               {"kept inner Voronoi vertices of " + args.input}));
   }
   timer.stop("write");
 
@@ -254,7 +275,8 @@ int run_bake(const Arguments& args) {
   const InputMesh input = load_mesh(args.input, load_options);
   // Repaired exporter defects are reported even with --quiet: the output differs from what
   // a strict reading would give.
-  for (const std::string& warning : input.warnings) std::fprintf(stderr, "skelform-bake: warning: %s\n", warning.c_str());
+  for (const std::string& warning : input.warnings)
+    std::fprintf(stderr, "skelform-bake: warning: %s\n", warning.c_str());
 
   BakeOptions options;
   options.target_triangles = static_cast<size_t>(args.target_triangles);
@@ -274,13 +296,16 @@ int run_bake(const Arguments& args) {
                 result.deformables.size(), seconds);
     for (const DeformableReport& r : result.reports) {
       char skeleton[64];
-      if (r.flat) std::snprintf(skeleton, sizeof(skeleton), "flat mesh, zero-radius skeleton");
-      else std::snprintf(skeleton, sizeof(skeleton), "skeleton %.2f%% inside", 100.0 * r.skeleton_inside);
-      std::printf("  mesh %d: %zu vertices (%zu welded), %zu triangles -> control %zu triangles%s, level %d "
-                  "(%zu triangles); %s; tangential residual on %.2f%% of vertices; rest error %.2g of diagonal\n",
-                  r.mesh, r.dense_vertices, r.welded_vertices, r.dense_triangles, r.control_triangles,
-                  r.decimated ? "" : " (not decimated)", r.subdivision_level, r.refined_triangles, skeleton,
-                  100.0 * r.residual_share, r.rest_error);
+      if (r.flat)
+        std::snprintf(skeleton, sizeof(skeleton), "flat mesh, zero-radius skeleton");
+      else
+        std::snprintf(skeleton, sizeof(skeleton), "skeleton %.2f%% inside", 100.0 * r.skeleton_inside);
+      std::printf(
+          "  mesh %d: %zu vertices (%zu welded), %zu triangles -> control %zu triangles%s, level %d "
+          "(%zu triangles); %s; tangential residual on %.2f%% of vertices; rest error %.2g of diagonal\n",
+          r.mesh, r.dense_vertices, r.welded_vertices, r.dense_triangles, r.control_triangles,
+          r.decimated ? "" : " (not decimated)", r.subdivision_level, r.refined_triangles, skeleton,
+          100.0 * r.residual_share, r.rest_error);
     }
   }
   return kExitOk;
@@ -307,10 +332,14 @@ int main(int argc, char** argv) {
   } catch (const Error& e) {
     std::fprintf(stderr, "skelform-bake: error: %s\n", e.what());
     switch (e.kind()) {
-      case ErrorKind::usage: std::fputs("(see skelform-bake --help)\n", stderr); return kExitUsage;
-      case ErrorKind::io: return kExitIo;
+      case ErrorKind::usage:
+        std::fputs("(see skelform-bake --help)\n", stderr);
+        return kExitUsage;
+      case ErrorKind::io:
+        return kExitIo;
       case ErrorKind::invalid_input:
-      case ErrorKind::unsupported: return kExitInvalidInput;
+      case ErrorKind::unsupported:
+        return kExitInvalidInput;
     }
     return kExitInternal;
   } catch (const std::bad_alloc&) {

@@ -34,9 +34,12 @@ sf_result fail(const sf_load_options* options, sf_result result, const std::stri
 
 sf_result result_of(const skelform::gltf::GltfError& error) {
   switch (error.kind()) {
-    case skelform::gltf::GltfError::unsupported: return SF_ERROR_UNSUPPORTED;
-    case skelform::gltf::GltfError::io: return SF_ERROR_IO;
-    case skelform::gltf::GltfError::invalid: break;
+    case skelform::gltf::GltfError::unsupported:
+      return SF_ERROR_UNSUPPORTED;
+    case skelform::gltf::GltfError::io:
+      return SF_ERROR_IO;
+    case skelform::gltf::GltfError::invalid:
+      break;
   }
   return SF_ERROR_INVALID_DATA;
 }

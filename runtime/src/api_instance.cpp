@@ -16,7 +16,11 @@
 using namespace skelform::runtime;
 
 sf_instance::sf_instance(const sf_asset& owner, const Deformable& d)
-    : asset(&owner), deformable(&d), allocator(owner.allocator), joints(owner.allocator), handles(owner.allocator),
+    : asset(&owner),
+      deformable(&d),
+      allocator(owner.allocator),
+      joints(owner.allocator),
+      handles(owner.allocator),
       skeletal(CallbackAllocator<glm::vec3>(owner.allocator)),
       normal_matrices(CallbackAllocator<glm::mat3>(owner.allocator)),
       control(CallbackAllocator<glm::vec3>(owner.allocator)),
@@ -25,7 +29,8 @@ sf_instance::sf_instance(const sf_asset& owner, const Deformable& d)
       step_normals_a(CallbackAllocator<glm::vec3>(owner.allocator)),
       step_normals_b(CallbackAllocator<glm::vec3>(owner.allocator)),
       rest_normal_offset(CallbackAllocator<glm::vec3>(owner.allocator)),
-      arc_poses(CallbackAllocator<ArcPose>(owner.allocator)), arc_radius(CallbackAllocator<float>(owner.allocator)),
+      arc_poses(CallbackAllocator<ArcPose>(owner.allocator)),
+      arc_radius(CallbackAllocator<float>(owner.allocator)),
       scaled_radius(CallbackAllocator<float>(owner.allocator)),
       fairing(owner.allocator),
       contact(owner.allocator),
@@ -47,7 +52,8 @@ sf_instance::sf_instance(const sf_asset& owner, const Deformable& d)
       skelform_tangents(CallbackAllocator<glm::vec4>(owner.allocator)),
       lbs_positions(CallbackAllocator<glm::vec3>(owner.allocator)),
       lbs_normals(CallbackAllocator<glm::vec3>(owner.allocator)),
-      lbs_tangents(CallbackAllocator<glm::vec4>(owner.allocator)), guard(owner.allocator) {
+      lbs_tangents(CallbackAllocator<glm::vec4>(owner.allocator)),
+      guard(owner.allocator) {
   // Every buffer of every stage, sized once: evaluation and output never allocate.
   JointAffine identity_affine;
   JointDualQuaternion identity_dq;
@@ -243,7 +249,8 @@ sf_result check_options(sf_instance& instance, const sf_eval_options& options) {
                 "sf_instance_evaluate: the LBS/DQS baselines deform by the skin, but the handle driver is selected");
   const Deformable& d = *instance.deformable;
   if (options.method != SF_METHOD_SKELFORM && (d.joint_count == 0 || d.influences == 0))
-    return fail(&instance, SF_ERROR_UNSUPPORTED, "sf_instance_evaluate: the LBS/DQS baselines need a skinned deformable");
+    return fail(&instance, SF_ERROR_UNSUPPORTED,
+                "sf_instance_evaluate: the LBS/DQS baselines need a skinned deformable");
   return SF_OK;
 }
 
@@ -526,10 +533,12 @@ sf_result sf_instance_set_handle_targets(sf_instance* instance, const float* tar
   return guarded(instance, "sf_instance_set_handle_targets", [&]() -> sf_result {
     HandleState& handles = instance->handles;
     if (!handles.system)
-      return fail(instance, SF_ERROR_NOT_READY, "sf_instance_set_handle_targets: no handle set (sf_instance_set_handle_set)");
+      return fail(instance, SF_ERROR_NOT_READY,
+                  "sf_instance_set_handle_targets: no handle set (sf_instance_set_handle_set)");
     if (count != handles.original.size())
-      return fail(instance, SF_ERROR_INVALID_ARGUMENT, "sf_instance_set_handle_targets: the set has %zu handles, %zu targets given",
-                  handles.original.size(), count);
+      return fail(instance, SF_ERROR_INVALID_ARGUMENT,
+                  "sf_instance_set_handle_targets: the set has %zu handles, %zu targets given", handles.original.size(),
+                  count);
     if (!targets) return fail(instance, SF_ERROR_INVALID_ARGUMENT, "sf_instance_set_handle_targets: targets is NULL");
     const size_t stride = stride_bytes == 0 ? 3 * sizeof(float) : stride_bytes;
     if (stride < 3 * sizeof(float))
@@ -577,7 +586,8 @@ sf_result sf_instance_write(const sf_instance* instance, uint32_t primitive, con
       return fail(instance, SF_ERROR_INVALID_ARGUMENT,
                   "sf_instance_write: a stride is smaller than its element (12 bytes, 16 for tangents)");
     if (output->tangents && !p.has_tangents)
-      return fail(instance, SF_ERROR_UNSUPPORTED, "sf_instance_write: primitive %u has no authored tangents", primitive);
+      return fail(instance, SF_ERROR_UNSUPPORTED, "sf_instance_write: primitive %u has no authored tangents",
+                  primitive);
     const size_t first = p.first_vertex, count = p.vertex_count;
     if (output->positions)
       write_stream(output->positions, position_stride, instance->dense_positions.data() + first, count);
@@ -604,8 +614,9 @@ sf_result sf_instance_write_coarse(const sf_instance* instance, uint32_t mesh, f
       return fail(instance, SF_ERROR_INVALID_ARGUMENT, "sf_instance_write_coarse: stride %zu is smaller than 12",
                   stride_bytes);
     if (vertex_capacity < d.control_vertex_count)
-      return fail(instance, SF_ERROR_INVALID_ARGUMENT, "sf_instance_write_coarse: capacity %zu, the mesh has %u vertices",
-                  vertex_capacity, d.control_vertex_count);
+      return fail(instance, SF_ERROR_INVALID_ARGUMENT,
+                  "sf_instance_write_coarse: capacity %zu, the mesh has %u vertices", vertex_capacity,
+                  d.control_vertex_count);
     if (!instance->has_previous)
       return fail(instance, SF_ERROR_NOT_READY,
                   "sf_instance_write_coarse: no SF_METHOD_SKELFORM evaluation yet (sf_instance_evaluate)");

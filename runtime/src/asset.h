@@ -18,8 +18,8 @@
 namespace skelform::runtime {
 
 struct PrimitiveRecord {
-  int32_t primitive = -1;       // index in the glTF mesh
-  uint32_t first_vertex = 0;    // offset among the deformable's dense vertices
+  int32_t primitive = -1;     // index in the glTF mesh
+  uint32_t first_vertex = 0;  // offset among the deformable's dense vertices
   uint32_t vertex_count = 0;
   uint32_t first_triangle = 0;  // offset in Deformable::dense_triangles (in triangles)
   uint32_t triangle_count = 0;
@@ -35,25 +35,44 @@ constexpr uint32_t kStencilLanes = 4;
 // concatenated in primitive order (the binding order of the extension).
 struct Deformable {
   explicit Deformable(const AllocatorRef& a)
-      : primitives(CallbackAllocator<PrimitiveRecord>(a)), rest_positions(CallbackAllocator<glm::vec3>(a)),
-        rest_normals(CallbackAllocator<glm::vec3>(a)), rest_tangents(CallbackAllocator<glm::vec4>(a)),
-        dense_triangles(CallbackAllocator<uint32_t>(a)), dense_joints(CallbackAllocator<uint16_t>(a)),
+      : primitives(CallbackAllocator<PrimitiveRecord>(a)),
+        rest_positions(CallbackAllocator<glm::vec3>(a)),
+        rest_normals(CallbackAllocator<glm::vec3>(a)),
+        rest_tangents(CallbackAllocator<glm::vec4>(a)),
+        dense_triangles(CallbackAllocator<uint32_t>(a)),
+        dense_joints(CallbackAllocator<uint16_t>(a)),
         dense_weights(CallbackAllocator<float>(a)),
-        skelform_weight(CallbackAllocator<float>(a)), control_positions(CallbackAllocator<glm::vec3>(a)),
-        control_normals(CallbackAllocator<glm::vec3>(a)), control_indices(CallbackAllocator<uint32_t>(a)),
-        skeletal_positions(CallbackAllocator<glm::vec3>(a)), medial_radius(CallbackAllocator<float>(a)),
-        control_joints(CallbackAllocator<uint16_t>(a)), control_weights(CallbackAllocator<float>(a)),
-        joint_usage(CallbackAllocator<float>(a)), control_rigid(CallbackAllocator<uint8_t>(a)),
-        stencil_offsets(CallbackAllocator<uint32_t>(a)), stencil_indices(CallbackAllocator<uint32_t>(a)),
-        stencil_weights(CallbackAllocator<float>(a)), stencil_group_rows(CallbackAllocator<uint32_t>(a)),
-        stencil_group_lengths(CallbackAllocator<uint32_t>(a)), stencil_group_indices(CallbackAllocator<uint32_t>(a)),
-        stencil_group_weights(CallbackAllocator<float>(a)), refined_indices(CallbackAllocator<uint32_t>(a)),
-        binding_triangle(CallbackAllocator<uint32_t>(a)), binding_barycentric(CallbackAllocator<glm::vec2>(a)),
-        binding_displacement(CallbackAllocator<float>(a)), binding_residual(CallbackAllocator<glm::vec2>(a)),
-        binding_corners(CallbackAllocator<uint32_t>(a)), rest_normal_coords(CallbackAllocator<glm::vec3>(a)),
-        rest_tangent_coords(CallbackAllocator<glm::vec3>(a)), handle_control_vertex(CallbackAllocator<uint32_t>(a)),
-        arc_joints(CallbackAllocator<ArcJoint>(a)), arc_vertices(CallbackAllocator<ArcVertex>(a)),
-        fairing_topology(a), fairing_rest(a), welded(a) {}
+        skelform_weight(CallbackAllocator<float>(a)),
+        control_positions(CallbackAllocator<glm::vec3>(a)),
+        control_normals(CallbackAllocator<glm::vec3>(a)),
+        control_indices(CallbackAllocator<uint32_t>(a)),
+        skeletal_positions(CallbackAllocator<glm::vec3>(a)),
+        medial_radius(CallbackAllocator<float>(a)),
+        control_joints(CallbackAllocator<uint16_t>(a)),
+        control_weights(CallbackAllocator<float>(a)),
+        joint_usage(CallbackAllocator<float>(a)),
+        control_rigid(CallbackAllocator<uint8_t>(a)),
+        stencil_offsets(CallbackAllocator<uint32_t>(a)),
+        stencil_indices(CallbackAllocator<uint32_t>(a)),
+        stencil_weights(CallbackAllocator<float>(a)),
+        stencil_group_rows(CallbackAllocator<uint32_t>(a)),
+        stencil_group_lengths(CallbackAllocator<uint32_t>(a)),
+        stencil_group_indices(CallbackAllocator<uint32_t>(a)),
+        stencil_group_weights(CallbackAllocator<float>(a)),
+        refined_indices(CallbackAllocator<uint32_t>(a)),
+        binding_triangle(CallbackAllocator<uint32_t>(a)),
+        binding_barycentric(CallbackAllocator<glm::vec2>(a)),
+        binding_displacement(CallbackAllocator<float>(a)),
+        binding_residual(CallbackAllocator<glm::vec2>(a)),
+        binding_corners(CallbackAllocator<uint32_t>(a)),
+        rest_normal_coords(CallbackAllocator<glm::vec3>(a)),
+        rest_tangent_coords(CallbackAllocator<glm::vec3>(a)),
+        handle_control_vertex(CallbackAllocator<uint32_t>(a)),
+        arc_joints(CallbackAllocator<ArcJoint>(a)),
+        arc_vertices(CallbackAllocator<ArcVertex>(a)),
+        fairing_topology(a),
+        fairing_rest(a),
+        welded(a) {}
 
   int32_t mesh = -1;
   int32_t node = -1;
@@ -64,9 +83,9 @@ struct Deformable {
   // Dense vertices (from the glTF primitives themselves).
   uint32_t vertex_count = 0;
   Array<glm::vec3> rest_positions;
-  Array<glm::vec3> rest_normals;   // authored NORMAL, or area-weighted from dense_triangles
-  Array<glm::vec4> rest_tangents;  // authored TANGENT (xyz, w); empty entries where absent
-  Array<uint32_t> dense_triangles; // 3 per triangle, deformable-wide vertex indices
+  Array<glm::vec3> rest_normals;    // authored NORMAL, or area-weighted from dense_triangles
+  Array<glm::vec4> rest_tangents;   // authored TANGENT (xyz, w); empty entries where absent
+  Array<uint32_t> dense_triangles;  // 3 per triangle, deformable-wide vertex indices
   // Dense skin for the LBS/DQS baselines: `influences` (4 × sets) per vertex, zero-weight
   // slots name joint 0.
   uint32_t influences = 0;
@@ -115,7 +134,7 @@ struct Deformable {
   Array<uint32_t> stencil_group_lengths;  // entries per row, one per group
   Array<uint32_t> stencil_group_indices;  // control vertices, kStencilLanes per step
   Array<float> stencil_group_weights;     // their weights, likewise
-  Array<uint32_t> refined_indices;  // 3 per refined triangle
+  Array<uint32_t> refined_indices;        // 3 per refined triangle
 
   // DSS binding of every dense vertex.
   Array<uint32_t> binding_triangle;

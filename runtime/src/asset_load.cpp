@@ -66,7 +66,8 @@ std::string number_text(double value) {
 }
 
 [[noreturn]] void beyond_influence_limit(const std::string& what, size_t sets) {
-  throw LoadError(SF_ERROR_UNSUPPORTED, what + ": " + std::to_string(sets) + " influence sets; this runtime reads at most " +
+  throw LoadError(SF_ERROR_UNSUPPORTED, what + ": " + std::to_string(sets) +
+                                            " influence sets; this runtime reads at most " +
                                             std::to_string(kMaxInfluenceSets) + " per deformable (" +
                                             std::to_string(4 * kMaxInfluenceSets) + " joints per vertex)");
 }
@@ -88,8 +89,8 @@ int integer_value(const tinygltf::Value& value, const std::string& what, const s
 }
 
 // An integer member within [low, high]; absent gives `fallback` when not required.
-int integer_member(const tinygltf::Value& object, const char* key, const std::string& what, bool required,
-                   int fallback, int low, int high) {
+int integer_member(const tinygltf::Value& object, const char* key, const std::string& what, bool required, int fallback,
+                   int low, int high) {
   const tinygltf::Value* value = member(object, key);
   if (!value) {
     if (required) invalid(what, std::string("required member '") + key + "' is missing");
@@ -141,7 +142,8 @@ ReadArray read_array(const tinygltf::Model& model, const tinygltf::Value& deform
   array.values = gltf::read_exact(model, accessor, component_type_of(spec.component), spec.components, array.what);
   const size_t elements = array.values.size() / static_cast<size_t>(spec.components);
   if (elements % static_cast<size_t>(spec.indices_per_item) != 0)
-    invalid(array.what, std::to_string(elements) + " indices, not a multiple of " + std::to_string(spec.indices_per_item));
+    invalid(array.what,
+            std::to_string(elements) + " indices, not a multiple of " + std::to_string(spec.indices_per_item));
   return array;
 }
 
@@ -156,13 +158,20 @@ struct Counts {
 
   size_t expected(format::CountOf count) const {
     switch (count) {
-      case format::CountOf::control_vertices: return control_vertices;
-      case format::CountOf::control_triangles: return control_triangles;
-      case format::CountOf::refined_vertices: return refined_vertices;
-      case format::CountOf::refined_vertices_plus_one: return refined_vertices + 1;
-      case format::CountOf::refined_triangles: return refined_triangles;
-      case format::CountOf::stencil_entries: return stencil_entries;
-      case format::CountOf::dense_vertices: return dense_vertices;
+      case format::CountOf::control_vertices:
+        return control_vertices;
+      case format::CountOf::control_triangles:
+        return control_triangles;
+      case format::CountOf::refined_vertices:
+        return refined_vertices;
+      case format::CountOf::refined_vertices_plus_one:
+        return refined_vertices + 1;
+      case format::CountOf::refined_triangles:
+        return refined_triangles;
+      case format::CountOf::stencil_entries:
+        return stencil_entries;
+      case format::CountOf::dense_vertices:
+        return dense_vertices;
     }
     return 0;
   }
@@ -170,13 +179,20 @@ struct Counts {
 
 const char* count_name(format::CountOf count) {
   switch (count) {
-    case format::CountOf::control_vertices: return "control vertices";
-    case format::CountOf::control_triangles: return "control triangles";
-    case format::CountOf::refined_vertices: return "refined vertices";
-    case format::CountOf::refined_vertices_plus_one: return "refined vertices + 1";
-    case format::CountOf::refined_triangles: return "refined triangles";
-    case format::CountOf::stencil_entries: return "stencil entries";
-    case format::CountOf::dense_vertices: return "dense vertices (vertexCount)";
+    case format::CountOf::control_vertices:
+      return "control vertices";
+    case format::CountOf::control_triangles:
+      return "control triangles";
+    case format::CountOf::refined_vertices:
+      return "refined vertices";
+    case format::CountOf::refined_vertices_plus_one:
+      return "refined vertices + 1";
+    case format::CountOf::refined_triangles:
+      return "refined triangles";
+    case format::CountOf::stencil_entries:
+      return "stencil entries";
+    case format::CountOf::dense_vertices:
+      return "dense vertices (vertexCount)";
   }
   return "?";
 }
@@ -246,8 +262,8 @@ void check_value_limits(const std::vector<ReadArray>& arrays) {
   const ReadArray& weights = find_array(arrays, "subdivision", "stencilWeights");
   for (size_t i = 0; i < weights.values.size(); ++i)
     if (!(std::fabs(weights.values[i]) <= 1.0))
-      invalid(weights.what, "weight " + number_text(weights.values[i]) + " of entry " + std::to_string(i) +
-                                " is outside [-1, 1]");
+      invalid(weights.what,
+              "weight " + number_text(weights.values[i]) + " of entry " + std::to_string(i) + " is outside [-1, 1]");
   const ReadArray& barycentric = find_array(arrays, "binding", "barycentric");
   for (size_t v = 0; 2 * v + 1 < barycentric.values.size(); ++v) {
     const double b1 = barycentric.values[2 * v], b2 = barycentric.values[2 * v + 1];
@@ -277,7 +293,8 @@ void finish_influences(InfluenceSets& sets, size_t vertex_count, uint32_t joint_
         // A zero weight may name any joint; only influencing joints must exist in the skin.
         if (sets.weights[set][v][k] > 0 && sets.joints[set][v][k] >= joint_count)
           invalid(what, set_labels[set] + " vertex " + std::to_string(v) + " names joint " +
-                            std::to_string(sets.joints[set][v][k]) + " but the skin has " + std::to_string(joint_count));
+                            std::to_string(sets.joints[set][v][k]) + " but the skin has " +
+                            std::to_string(joint_count));
         if (!(sets.weights[set][v][k] > 0)) sets.joints[set][v][k] = 0;
       }
     }
@@ -349,12 +366,14 @@ void read_primitives(const tinygltf::Model& model, const tinygltf::Value& json, 
     const tinygltf::Value& item = list->Get(static_cast<int>(p));
     const double number = item.IsNumber() ? item.GetNumberAsDouble() : -1.0;
     if (!(number >= 0) || number != std::floor(number) || number >= static_cast<double>(mesh.primitives.size()))
-      invalid(prefix, "primitives[" + std::to_string(p) + "] is not a primitive of mesh " + std::to_string(deformable.mesh));
+      invalid(prefix,
+              "primitives[" + std::to_string(p) + "] is not a primitive of mesh " + std::to_string(deformable.mesh));
     const size_t index = static_cast<size_t>(number);
     if (seen[index]) invalid(prefix, "primitive " + std::to_string(index) + " is listed twice");
     seen[index] = true;
     const tinygltf::Primitive& primitive = mesh.primitives[index];
-    const std::string what = prefix + " mesh " + std::to_string(deformable.mesh) + " primitive " + std::to_string(index);
+    const std::string what =
+        prefix + " mesh " + std::to_string(deformable.mesh) + " primitive " + std::to_string(index);
 
     const int mode = primitive.mode < 0 ? TINYGLTF_MODE_TRIANGLES : primitive.mode;  // absent = TRIANGLES
     if (mode != TINYGLTF_MODE_TRIANGLES && mode != TINYGLTF_MODE_TRIANGLE_STRIP && mode != TINYGLTF_MODE_TRIANGLE_FAN)
@@ -384,7 +403,8 @@ void read_primitives(const tinygltf::Model& model, const tinygltf::Value& json, 
     if (override_accessor >= 0) {
       const std::vector<float> values =
           gltf::read_unit_scalars(model, override_accessor, what + " " + format::kSkelformWeightAttribute);
-      if (values.size() != vertex_count) invalid(what, std::string(format::kSkelformWeightAttribute) + " count differs from POSITION count");
+      if (values.size() != vertex_count)
+        invalid(what, std::string(format::kSkelformWeightAttribute) + " count differs from POSITION count");
       weight_override.insert(weight_override.end(), values.begin(), values.end());
     } else {
       weight_override.insert(weight_override.end(), vertex_count, -1.0f);
@@ -499,8 +519,8 @@ void compute_missing_normals(Deformable& deformable) {
   for (size_t v = 0; v < deformable.vertex_count; ++v) {
     if (!computed[v]) continue;
     const float length = glm::length(deformable.rest_normals[v]);
-    deformable.rest_normals[v] = length > 1e-30f && std::isfinite(length) ? deformable.rest_normals[v] / length
-                                                                          : glm::vec3(0.0f);
+    deformable.rest_normals[v] =
+        length > 1e-30f && std::isfinite(length) ? deformable.rest_normals[v] / length : glm::vec3(0.0f);
   }
 }
 
@@ -514,7 +534,8 @@ void load_deformable(const tinygltf::Model& model, const tinygltf::Value& json, 
   deformable.node = integer_member(json, format::kNode, prefix, false, -1, 0, static_cast<int>(model.nodes.size()) - 1);
   deformable.skin = integer_member(json, format::kSkin, prefix, false, -1, 0, static_cast<int>(model.skins.size()) - 1);
   if (deformable.node >= 0 && model.nodes[static_cast<size_t>(deformable.node)].mesh != deformable.mesh)
-    invalid(prefix, "node " + std::to_string(deformable.node) + " does not instance mesh " + std::to_string(deformable.mesh));
+    invalid(prefix,
+            "node " + std::to_string(deformable.node) + " does not instance mesh " + std::to_string(deformable.mesh));
   if (deformable.skin >= 0) {
     const size_t joints = model.skins[static_cast<size_t>(deformable.skin)].joints.size();
     if (joints == 0) invalid(prefix, "skin " + std::to_string(deformable.skin) + " has no joints");
@@ -531,9 +552,8 @@ void load_deformable(const tinygltf::Model& model, const tinygltf::Value& json, 
 
   const ReadArray& offsets = find_array(arrays, "subdivision", "stencilOffsets");
   const tinygltf::Value& subdivision = object_member(json, "subdivision", prefix);
-  deformable.subdivision_level =
-      static_cast<uint32_t>(integer_member(subdivision, format::kSubdivisionLevel, prefix + " subdivision", true, 0, 0,
-                                           kMaxSubdivisionLevel));
+  deformable.subdivision_level = static_cast<uint32_t>(integer_member(
+      subdivision, format::kSubdivisionLevel, prefix + " subdivision", true, 0, 0, kMaxSubdivisionLevel));
 
   // The quantities CountOf names: defined by the array that carries them, then every array
   // is checked against them.
@@ -602,10 +622,10 @@ void load_deformable(const tinygltf::Model& model, const tinygltf::Value& json, 
     if (joints->ArrayLen() > kMaxInfluenceSets) beyond_influence_limit(where + " joints", joints->ArrayLen());
     for (size_t set = 0; set < joints->ArrayLen(); ++set) {
       const std::string index = "[" + std::to_string(set) + "]";
-      const int joint_accessor =
-          integer_value(joints->Get(static_cast<int>(set)), where, std::string(format::kJointSet.name) + index, 0, int_max);
-      const int weight_accessor =
-          integer_value(weights->Get(static_cast<int>(set)), where, std::string(format::kWeightSet.name) + index, 0, int_max);
+      const int joint_accessor = integer_value(joints->Get(static_cast<int>(set)), where,
+                                               std::string(format::kJointSet.name) + index, 0, int_max);
+      const int weight_accessor = integer_value(weights->Get(static_cast<int>(set)), where,
+                                                std::string(format::kWeightSet.name) + index, 0, int_max);
       const ReadArray joint_array = read_array(model, json, format::kJointSet, prefix, joint_accessor, set);
       const ReadArray weight_array = read_array(model, json, format::kWeightSet, prefix, weight_accessor, set);
       for (const ReadArray* array : {&joint_array, &weight_array})
@@ -625,7 +645,8 @@ void load_deformable(const tinygltf::Model& model, const tinygltf::Value& json, 
       control_sets.weights.push_back(std::move(set_weights));
       control_labels.push_back("control.joints[" + std::to_string(set) + "]");
     }
-    finish_influences(control_sets, counts.control_vertices, deformable.joint_count, prefix + " control", control_labels);
+    finish_influences(control_sets, counts.control_vertices, deformable.joint_count, prefix + " control",
+                      control_labels);
   }
 
   // Dense vertices from the glTF mesh itself.
@@ -637,7 +658,8 @@ void load_deformable(const tinygltf::Model& model, const tinygltf::Value& json, 
     invalid(prefix, std::string(format::kVertexCount) + " is " + std::to_string(counts.dense_vertices) +
                         " but the primitives' POSITION counts sum to " + std::to_string(deformable.vertex_count));
   if (deformable.skin >= 0) {
-    finish_influences(dense_sets, deformable.vertex_count, deformable.joint_count, prefix + " dense skin", dense_labels);
+    finish_influences(dense_sets, deformable.vertex_count, deformable.joint_count, prefix + " dense skin",
+                      dense_labels);
     const size_t sets = std::max(dense_sets.joints.size(), control_sets.joints.size());
     deformable.influences = static_cast<uint32_t>(4 * sets);
     store_influences(dense_sets, deformable.vertex_count, deformable.influences, deformable.dense_joints,
@@ -803,7 +825,8 @@ void derive_rest_data(Deformable& deformable) {
     uint32_t control = 0;
     for (const auto& [weight, refined_vertex] : by_weight) {
       (void)weight;
-      const uint32_t begin = deformable.stencil_offsets[refined_vertex], end = deformable.stencil_offsets[refined_vertex + 1];
+      const uint32_t begin = deformable.stencil_offsets[refined_vertex],
+                     end = deformable.stencil_offsets[refined_vertex + 1];
       if (begin == end) continue;
       uint32_t best = begin;
       for (uint32_t s = begin + 1; s < end; ++s)
@@ -848,8 +871,8 @@ sf_asset* load_asset(const unsigned char* bytes, size_t size, const std::string&
 
   const auto extension = model.extensions.find(format::kExtensionName);
   if (extension == model.extensions.end())
-    invalid(name, std::string("not a skelform-baked asset (run skelform-bake): no ") + format::kExtensionName +
-                      " extension");
+    invalid(name,
+            std::string("not a skelform-baked asset (run skelform-bake): no ") + format::kExtensionName + " extension");
   const tinygltf::Value& root = extension->second;
   const std::string prefix = name + ": " + format::kExtensionName;
   if (!root.IsObject()) invalid(prefix, "the extension is not a JSON object");
@@ -858,15 +881,16 @@ sf_asset* load_asset(const unsigned char* bytes, size_t size, const std::string&
   if (major > format::kMajorVersion)
     throw LoadError(SF_ERROR_VERSION_MISMATCH,
                     prefix + " is version " + std::to_string(major) + "." + std::to_string(minor) +
-                        "; this runtime reads major version " + std::to_string(format::kMajorVersion) +
-                        " (up to " + std::to_string(format::kMajorVersion) + "." + std::to_string(format::kMinorVersion) +
+                        "; this runtime reads major version " + std::to_string(format::kMajorVersion) + " (up to " +
+                        std::to_string(format::kMajorVersion) + "." + std::to_string(format::kMinorVersion) +
                         "): update skelform or bake with the matching skelform-bake");
   if (major < 1) invalid(prefix, "majorVersion " + std::to_string(major) + " does not exist (versions start at 1)");
   if (major < format::kMajorVersion)
     throw LoadError(SF_ERROR_VERSION_MISMATCH,
                     prefix + " is version " + std::to_string(major) + "." + std::to_string(minor) +
                         ", baked by an older skelform-bake whose binding used another normal field; this runtime "
-                        "reads major version " + std::to_string(format::kMajorVersion) +
+                        "reads major version " +
+                        std::to_string(format::kMajorVersion) +
                         " only: bake the asset again with this release's skelform-bake");
 
   const tinygltf::Value* deformables = member(root, format::kDeformables);
@@ -878,12 +902,13 @@ sf_asset* load_asset(const unsigned char* bytes, size_t size, const std::string&
   for (size_t d = 0; d < deformables->ArrayLen(); ++d) {
     asset->deformables.emplace_back(allocator);
     Deformable& deformable = asset->deformables.back();
-    load_deformable(model, deformables->Get(static_cast<int>(d)), prefix + " deformable " + std::to_string(d), deformable);
+    load_deformable(model, deformables->Get(static_cast<int>(d)), prefix + " deformable " + std::to_string(d),
+                    deformable);
     derive_rest_data(deformable);
     derive_fairing_data(deformable, allocator);
-    deformable.welded = build_contact_mesh(deformable.rest_positions.data(), deformable.vertex_count,
-                                           deformable.dense_triangles.data(), deformable.dense_triangles.size() / 3,
-                                           allocator);
+    deformable.welded =
+        build_contact_mesh(deformable.rest_positions.data(), deformable.vertex_count, deformable.dense_triangles.data(),
+                           deformable.dense_triangles.size() / 3, allocator);
   }
   return asset.release();
 }

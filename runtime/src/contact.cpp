@@ -70,7 +70,8 @@ struct CellRange {
 // them, and the triangle tests at the current positions.
 class Grid {
  public:
-  Grid(const ContactMesh& mesh, float gap, ContactWorkspace& ws) : mesh_(mesh), ws_(ws), x_(ws.positions.data()), gap_(gap) {}
+  Grid(const ContactMesh& mesh, float gap, ContactWorkspace& ws)
+      : mesh_(mesh), ws_(ws), x_(ws.positions.data()), gap_(gap) {}
 
   // Buckets every triangle by its box now. `pad` is how far a vertex may move from here during
   // the pass: gather() looks that much further. False when a position is not finite (the pass
@@ -312,8 +313,12 @@ class Grid {
     lo = glm::min(x_[q[0]], glm::min(x_[q[1]], x_[q[2]]));
     hi = glm::max(x_[q[0]], glm::max(x_[q[1]], x_[q[2]]));
   }
-  glm::vec3 stored_lo(uint32_t t) const { return glm::vec3(ws_.boxes[6 * size_t(t)], ws_.boxes[6 * size_t(t) + 1], ws_.boxes[6 * size_t(t) + 2]); }
-  glm::vec3 stored_hi(uint32_t t) const { return glm::vec3(ws_.boxes[6 * size_t(t) + 3], ws_.boxes[6 * size_t(t) + 4], ws_.boxes[6 * size_t(t) + 5]); }
+  glm::vec3 stored_lo(uint32_t t) const {
+    return glm::vec3(ws_.boxes[6 * size_t(t)], ws_.boxes[6 * size_t(t) + 1], ws_.boxes[6 * size_t(t) + 2]);
+  }
+  glm::vec3 stored_hi(uint32_t t) const {
+    return glm::vec3(ws_.boxes[6 * size_t(t) + 3], ws_.boxes[6 * size_t(t) + 4], ws_.boxes[6 * size_t(t) + 5]);
+  }
   int coordinate(float value, int k) const {
     // Clamped while still a float (fair.cpp cell_coordinate): a cell that underflowed makes c
     // inf, and inf converted to int is undefined behaviour.
@@ -388,7 +393,8 @@ ContactMesh build_contact_mesh(const glm::vec3* rest_positions, uint32_t vertex_
     mesh.weld[v] = id[r];
   }
   for (size_t t = 0; t < triangle_count; ++t) {
-    const uint32_t a = mesh.weld[triangles[3 * t]], b = mesh.weld[triangles[3 * t + 1]], c = mesh.weld[triangles[3 * t + 2]];
+    const uint32_t a = mesh.weld[triangles[3 * t]], b = mesh.weld[triangles[3 * t + 1]],
+                   c = mesh.weld[triangles[3 * t + 2]];
     if (a == b || b == c || c == a) continue;
     mesh.triangles.push_back(a);
     mesh.triangles.push_back(b);
@@ -461,14 +467,15 @@ ContactMesh build_contact_mesh(const glm::vec3* rest_positions, uint32_t vertex_
     boxes.set(mesh.hierarchy.slot[t], box);
   }
   refit_triangle_hierarchy(mesh.hierarchy, boxes, node_boxes.data());
-  self_pairs_triangle_hierarchy(mesh.hierarchy, node_boxes.data(), boxes, wanted.data(), node_wanted.data(),
-                                leaf_wanted.data(), [&](uint32_t s, uint32_t t) {
-                                  const uint32_t* p = tri + 3 * size_t(s);
-                                  const uint32_t* q = tri + 3 * size_t(t);
-                                  auto at = [&](uint32_t v) { return glm::dvec3(welded_rest[v]); };
-                                  if (geometry::triangles_intersect(at(p[0]), at(p[1]), at(p[2]), at(q[0]), at(q[1]), at(q[2])))
-                                    mesh.rest_pairs.push_back(uint64_t(std::min(s, t)) << 32 | std::max(s, t));
-                                });
+  self_pairs_triangle_hierarchy(
+      mesh.hierarchy, node_boxes.data(), boxes, wanted.data(), node_wanted.data(), leaf_wanted.data(),
+      [&](uint32_t s, uint32_t t) {
+        const uint32_t* p = tri + 3 * size_t(s);
+        const uint32_t* q = tri + 3 * size_t(t);
+        auto at = [&](uint32_t v) { return glm::dvec3(welded_rest[v]); };
+        if (geometry::triangles_intersect(at(p[0]), at(p[1]), at(p[2]), at(q[0]), at(q[1]), at(q[2])))
+          mesh.rest_pairs.push_back(uint64_t(std::min(s, t)) << 32 | std::max(s, t));
+      });
   std::sort(mesh.rest_pairs.begin(), mesh.rest_pairs.end());
   return mesh;
 }

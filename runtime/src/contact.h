@@ -27,18 +27,22 @@ namespace skelform::runtime {
 // (sf_instance_set_contacts).
 struct ContactMesh {
   explicit ContactMesh(const AllocatorRef& a)
-      : weld(CallbackAllocator<uint32_t>(a)), representative(CallbackAllocator<uint32_t>(a)),
-        triangles(CallbackAllocator<uint32_t>(a)), incident_offsets(CallbackAllocator<uint32_t>(a)),
-        incident(CallbackAllocator<uint32_t>(a)), hierarchy(a), rest_pairs(CallbackAllocator<uint64_t>(a)) {}
-  uint32_t vertex_count = 0;          // welded vertices
-  uint32_t triangle_count = 0;        // welded triangles without a repeated corner
-  Array<uint32_t> weld;               // per dense vertex: its welded vertex (same rest position, bit for bit)
-  Array<uint32_t> representative;     // per welded vertex: the first dense vertex with its position
-  Array<uint32_t> triangles;          // 3 per triangle, welded indices
-  Array<uint32_t> incident_offsets;   // vertex_count + 1 (CSR)
-  Array<uint32_t> incident;           // triangles around each welded vertex, ascending
-  float gap = 0.0f;                   // clearance a push aims for: kContactGap mean rest edges
-  float cap = 0.0f;                   // largest total move of a vertex: kContactCap mean rest edges
+      : weld(CallbackAllocator<uint32_t>(a)),
+        representative(CallbackAllocator<uint32_t>(a)),
+        triangles(CallbackAllocator<uint32_t>(a)),
+        incident_offsets(CallbackAllocator<uint32_t>(a)),
+        incident(CallbackAllocator<uint32_t>(a)),
+        hierarchy(a),
+        rest_pairs(CallbackAllocator<uint64_t>(a)) {}
+  uint32_t vertex_count = 0;         // welded vertices
+  uint32_t triangle_count = 0;       // welded triangles without a repeated corner
+  Array<uint32_t> weld;              // per dense vertex: its welded vertex (same rest position, bit for bit)
+  Array<uint32_t> representative;    // per welded vertex: the first dense vertex with its position
+  Array<uint32_t> triangles;         // 3 per triangle, welded indices
+  Array<uint32_t> incident_offsets;  // vertex_count + 1 (CSR)
+  Array<uint32_t> incident;          // triangles around each welded vertex, ascending
+  float gap = 0.0f;                  // clearance a push aims for: kContactGap mean rest edges
+  float cap = 0.0f;                  // largest total move of a vertex: kContactCap mean rest edges
   // Every edge has exactly two triangles using it in opposite directions: the welded mesh
   // bounds a volume, `rest_volume` (signed, divergence theorem, in the stored mesh's units).
   bool closed = false;
@@ -61,11 +65,17 @@ ContactMesh build_contact_mesh(const glm::vec3* rest_positions, uint32_t vertex_
 // Scratch of one instance, sized once for its mesh (make_contact_workspace).
 struct ContactWorkspace {
   explicit ContactWorkspace(const AllocatorRef& a)
-      : positions(CallbackAllocator<glm::vec3>(a)), start(CallbackAllocator<glm::vec3>(a)),
-        state(CallbackAllocator<uint8_t>(a)), active(CallbackAllocator<uint32_t>(a)), cell_offsets(CallbackAllocator<uint32_t>(a)),
-        entries(CallbackAllocator<uint32_t>(a)), oversized(CallbackAllocator<uint32_t>(a)),
-        ranges(CallbackAllocator<int16_t>(a)), boxes(CallbackAllocator<float>(a)),
-        normals(CallbackAllocator<glm::vec3>(a)), stamps(CallbackAllocator<uint32_t>(a)),
+      : positions(CallbackAllocator<glm::vec3>(a)),
+        start(CallbackAllocator<glm::vec3>(a)),
+        state(CallbackAllocator<uint8_t>(a)),
+        active(CallbackAllocator<uint32_t>(a)),
+        cell_offsets(CallbackAllocator<uint32_t>(a)),
+        entries(CallbackAllocator<uint32_t>(a)),
+        oversized(CallbackAllocator<uint32_t>(a)),
+        ranges(CallbackAllocator<int16_t>(a)),
+        boxes(CallbackAllocator<float>(a)),
+        normals(CallbackAllocator<glm::vec3>(a)),
+        stamps(CallbackAllocator<uint32_t>(a)),
         candidates(CallbackAllocator<uint32_t>(a)) {}
   Array<glm::vec3> positions;    // welded positions
   Array<glm::vec3> start;        // position of each active vertex when the pass began
@@ -93,7 +103,7 @@ struct ContactStats {
 // The pass on `dense_positions` (per dense vertex, in place). Deterministic.
 // `movable` (optional, per dense vertex): only welded vertices whose representative has a
 // positive value move (the skin driver passes the skelform weight: rigid parts stay rigid).
-ContactStats resolve_contacts(const ContactMesh& mesh, float scale, glm::vec3* dense_positions, uint32_t dense_vertex_count,
-                              ContactWorkspace& workspace, const float* movable = nullptr);
+ContactStats resolve_contacts(const ContactMesh& mesh, float scale, glm::vec3* dense_positions,
+                              uint32_t dense_vertex_count, ContactWorkspace& workspace, const float* movable = nullptr);
 
 }  // namespace skelform::runtime

@@ -196,8 +196,8 @@ inline void store_tangents(const float (&rows)[3][kBlock], uint32_t i, const glm
 #endif
 
 template <bool kNormals, bool kTangents>
-void displace_vertices(const Deformable& d, const glm::vec3* refined, const glm::vec3* refined_normal,
-                       uint32_t first, uint32_t end, const DenseOutput& out) {
+void displace_vertices(const Deformable& d, const glm::vec3* refined, const glm::vec3* refined_normal, uint32_t first,
+                       uint32_t end, const DenseOutput& out) {
   Block b;
   for (uint32_t start = first; start < end; start += kBlock) {
     const uint32_t count = end - start < kBlock ? end - start : kBlock;
@@ -263,10 +263,14 @@ void displace(const Deformable& d, const glm::vec3* control, const glm::vec3* sk
     const bool carry_tangents = with_normals && primitive.has_tangents && out.tangents;
     const glm::vec3* p = refined_positions;
     const glm::vec3* n = refined_normal_buffer;
-    if (carry_normals && carry_tangents) displace_vertices<true, true>(d, p, n, first, end, out);
-    else if (carry_normals) displace_vertices<true, false>(d, p, n, first, end, out);
-    else if (carry_tangents) displace_vertices<false, true>(d, p, n, first, end, out);
-    else displace_vertices<false, false>(d, p, n, first, end, out);
+    if (carry_normals && carry_tangents)
+      displace_vertices<true, true>(d, p, n, first, end, out);
+    else if (carry_normals)
+      displace_vertices<true, false>(d, p, n, first, end, out);
+    else if (carry_tangents)
+      displace_vertices<false, true>(d, p, n, first, end, out);
+    else
+      displace_vertices<false, false>(d, p, n, first, end, out);
     if (with_normals && !primitive.has_normals) primitive_face_normals(d, primitive, p, n, out);
   }
 }

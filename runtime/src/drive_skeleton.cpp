@@ -77,7 +77,8 @@ void drive_skeleton_skin(const Deformable& d, const JointTransforms& joints, Ble
     if (blend == Blend::linear)
       blend_affine(joints.skin_affine.data(), joint_index + first, weight + first, influences, blended);
     else
-      blend_dual_quaternion(joints.skin_dual_quaternion.data(), joint_index + first, weight + first, influences, blended);
+      blend_dual_quaternion(joints.skin_dual_quaternion.data(), joint_index + first, weight + first, influences,
+                            blended);
     skeletal_out[v] = transform_point(blended, d.skeletal_positions[v]);
     // Kept for the carried reconstruction: the rest normal N_i turns with the same blended
     // transform that moved S_i, so M = S' + d·N stays consistent with the skin.
@@ -110,15 +111,17 @@ void drive_skeleton_arcs(const Deformable& d, const JointTransforms& joints, con
     float blended[12];
     for (int r = 0; r < 3; ++r) {
       for (int c = 0; c < 3; ++c)
-        blended[4 * r + c] = arc * map.scale *
-                             (a[4 * r] * map.rotation[c][0] + a[4 * r + 1] * map.rotation[c][1] + a[4 * r + 2] * map.rotation[c][2]);
+        blended[4 * r + c] =
+            arc * map.scale *
+            (a[4 * r] * map.rotation[c][0] + a[4 * r + 1] * map.rotation[c][1] + a[4 * r + 2] * map.rotation[c][2]);
       blended[4 * r + 3] = arc * (a[4 * r] * map.translation.x + a[4 * r + 1] * map.translation.y +
                                   a[4 * r + 2] * map.translation.z + a[4 * r + 3]);
     }
     const size_t first = size_t(v) * influences;
     for (uint32_t k = 0; k < influences; ++k) {
       const uint16_t j = joint_index[first + k];
-      const float w = (j == joint.parent || j == joint.child) ? (1.0f - pose.weight) * weight[first + k] : weight[first + k];
+      const float w =
+          (j == joint.parent || j == joint.child) ? (1.0f - pose.weight) * weight[first + k] : weight[first + k];
       const float* m = joints.skin_affine[j].m;
       for (int c = 0; c < 12; ++c) blended[c] += w * m[c];
     }

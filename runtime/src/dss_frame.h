@@ -166,8 +166,8 @@ inline SurfaceFrame surface_frame(const glm::vec3& p0, const glm::vec3& p1, cons
       !detail::tangent_from(p2 - p0, frame.normal, frame.tangent)) {
     const glm::vec3 a = glm::abs(frame.normal);
     const glm::vec3 axis = a.x <= a.y && a.x <= a.z ? glm::vec3(1, 0, 0)
-                           : a.y <= a.z            ? glm::vec3(0, 1, 0)
-                                                   : glm::vec3(0, 0, 1);
+                           : a.y <= a.z             ? glm::vec3(0, 1, 0)
+                                                    : glm::vec3(0, 0, 1);
     // The least aligned axis makes an angle of at least ~35° with a unit normal: always
     // a usable tangent.
     detail::tangent_from(axis, frame.normal, frame.tangent);

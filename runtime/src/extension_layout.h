@@ -34,13 +34,13 @@ enum class Component : int {
 
 // What an array's element count must equal; the reader checks every array against it.
 enum class CountOf {
-  control_vertices,    // control mesh vertex count (= skeletal mesh vertex count)
-  control_triangles,   // control mesh triangle count (x3 indices)
-  refined_vertices,    // vertices of the level-k subdivided control mesh
+  control_vertices,   // control mesh vertex count (= skeletal mesh vertex count)
+  control_triangles,  // control mesh triangle count (x3 indices)
+  refined_vertices,   // vertices of the level-k subdivided control mesh
   refined_vertices_plus_one,
-  refined_triangles,   // triangles of the level-k subdivided control mesh (x3 indices)
-  stencil_entries,     // total number of stencil (index, weight) pairs
-  dense_vertices,      // original glTF vertices of the deformable's primitives, concatenated
+  refined_triangles,  // triangles of the level-k subdivided control mesh (x3 indices)
+  stencil_entries,    // total number of stencil (index, weight) pairs
+  dense_vertices,     // original glTF vertices of the deformable's primitives, concatenated
 };
 
 // One stored array: `group` is the member object of the deformable holding it, `name` the
@@ -49,7 +49,7 @@ struct ArraySpec {
   const char* group;
   const char* name;
   Component component;
-  int components;        // 1 = SCALAR, 2 = VEC2, 3 = VEC3, 4 = VEC4
+  int components;  // 1 = SCALAR, 2 = VEC2, 3 = VEC3, 4 = VEC4
   CountOf count;
   int indices_per_item;  // 3 for triangle index arrays (count = items x 3), else 1
 };
@@ -82,26 +82,28 @@ inline constexpr size_t kArrayCount = sizeof(kArrays) / sizeof(kArrays[0]);
 
 // Skin weights of the control (= skeletal) vertices, in sets of four like glTF's
 // JOINTS_n/WEIGHTS_n: control.joints[i] and control.weights[i] are arrays of accessors.
-inline constexpr ArraySpec kJointSet = {"control", "joints", Component::unsigned_short, 4, CountOf::control_vertices, 1};
+inline constexpr ArraySpec kJointSet = {"control", "joints", Component::unsigned_short, 4, CountOf::control_vertices,
+                                        1};
 inline constexpr ArraySpec kWeightSet = {"control", "weights", Component::float32, 4, CountOf::control_vertices, 1};
 
 // The skelform weight of every dense vertex (runtime/src/skelform_weight.h), in [0, 1]:
 // the output is LBS + weight·(skelform − LBS). Optional (version 2.2); the reader derives it
 // from the skin when it is absent.
-inline constexpr ArraySpec kSkelformWeight = {"blend", "skelformWeight", Component::float32, 1, CountOf::dense_vertices, 1};
+inline constexpr ArraySpec kSkelformWeight = {"blend", "skelformWeight",        Component::float32,
+                                              1,       CountOf::dense_vertices, 1};
 // The vertex attribute through which an artist overrides the skelform weight, per primitive:
 // SCALAR FLOAT or normalized UNSIGNED_BYTE / UNSIGNED_SHORT, every value in [0, 1]. glTF names
 // application-specific attributes with a leading underscore.
 inline constexpr char kSkelformWeightAttribute[] = "_SKELFORM_WEIGHT";
 
 // Scalar members of a deformable (JSON integers).
-inline constexpr char kMesh[] = "mesh";             // glTF mesh index
-inline constexpr char kNode[] = "node";             // the skinned node instancing it (or -1 absent)
-inline constexpr char kSkin[] = "skin";             // glTF skin index (absent: unskinned, handles only)
-inline constexpr char kPrimitives[] = "primitives"; // primitive indices of the mesh, binding order
-inline constexpr char kVertexCount[] = "vertexCount";       // dense vertices, all primitives
-inline constexpr char kSubdivisionLevel[] = "level";        // in "subdivision"
-inline constexpr char kDeformables[] = "deformables";       // root member: array of deformables
+inline constexpr char kMesh[] = "mesh";                // glTF mesh index
+inline constexpr char kNode[] = "node";                // the skinned node instancing it (or -1 absent)
+inline constexpr char kSkin[] = "skin";                // glTF skin index (absent: unskinned, handles only)
+inline constexpr char kPrimitives[] = "primitives";    // primitive indices of the mesh, binding order
+inline constexpr char kVertexCount[] = "vertexCount";  // dense vertices, all primitives
+inline constexpr char kSubdivisionLevel[] = "level";   // in "subdivision"
+inline constexpr char kDeformables[] = "deformables";  // root member: array of deformables
 inline constexpr char kMajorVersionKey[] = "majorVersion";
 inline constexpr char kMinorVersionKey[] = "minorVersion";
 

@@ -28,16 +28,16 @@
 #include <limits>
 
 #if defined(__SSE2__)
-#include <emmintrin.h>
+#  include <emmintrin.h>
 #endif
 
 namespace skelform::runtime {
 namespace {
 
 constexpr uint32_t kDefaultIterations = 30;
-constexpr float kAlphaSmooth = 0.25f;         // α of flow (4) where the umbrellas agree
-constexpr float kObtuseFraction = 0.3f;       // the paper's 30 % rule
-constexpr uint32_t kDefaultGridSize = 20;     // the paper's 20×20×20 voxels
+constexpr float kAlphaSmooth = 0.25f;      // α of flow (4) where the umbrellas agree
+constexpr float kObtuseFraction = 0.3f;    // the paper's 30 % rule
+constexpr uint32_t kDefaultGridSize = 20;  // the paper's 20×20×20 voxels
 constexpr int kGaussSeidelSweeps = 3;
 // A vertex moves at most this many times its mean incident edge length per step: a safety net
 // against a far-off vertex overshooting (scale-free, so scale invariance is kept).
@@ -174,14 +174,13 @@ void gauss_seidel(const FairingTopology& topo, glm::vec3* x, float step, const f
       if (is_fixed(topo, ws, v)) continue;
       const float nu = topo.bi_umbrella_diagonal[v];
       glm::vec3 off_diagonal = bi_umbrella_at(topo, x, v) - nu * x[v];  // U²x − ν x_v
-      if (targets.bi_umbrella) off_diagonal -= targets.bi_umbrella[v];      // relative to rest
+      if (targets.bi_umbrella) off_diagonal -= targets.bi_umbrella[v];  // relative to rest
       const float a = ws.smoothing_weight[v];
       const glm::vec3& n = ws.force_direction[v];
       const float tangential_weight = tangential_weights ? tangential_weights[v] : 0.0f;
       // B_v applied to the off-diagonal part: a·r + b·(r − (r·n)n).
       const glm::vec3 b_off = a * off_diagonal + tangential_weight * (off_diagonal - glm::dot(off_diagonal, n) * n);
-      const glm::vec3 solved =
-          solve_block(ws.start_positions[v] - step * b_off, n, step * nu, a, tangential_weight);
+      const glm::vec3 solved = solve_block(ws.start_positions[v] - step * b_off, n, step * nu, a, tangential_weight);
       if (finite(solved)) x[v] = solved;
     }
   }
@@ -195,8 +194,8 @@ void triangle_forces(const FairingTopology& topo, const glm::vec3* skeletal, con
                      const float* rest_level, uint32_t first, uint32_t count, FairingWorkspace& ws);
 
 // One step of flow (4).
-void fold_step(const FairingTopology& topo, const glm::vec3* skeletal, const float* radius, glm::vec3* x,
-               float step, bool semi_implicit, const Targets& targets, FairingWorkspace& ws) {
+void fold_step(const FairingTopology& topo, const glm::vec3* skeletal, const float* radius, glm::vec3* x, float step,
+               bool semi_implicit, const Targets& targets, FairingWorkspace& ws) {
   const uint32_t vertex_count = topo.vertex_count;
   compute_umbrellas(topo, x, targets, ws);
 
@@ -219,8 +218,9 @@ void fold_step(const FairingTopology& topo, const glm::vec3* skeletal, const flo
     // changed the surface here) has no meaningful direction: no fold, α as for a smooth spot.
     const float edge = edge_scale(topo, x, ws, v);
     const bool negligible = glm::length(ws.umbrella[v]) < 1e-3f * edge;
-    const float alpha =
-        negligible || static_cast<float>(obtuse) < kObtuseFraction * static_cast<float>(end - begin) ? kAlphaSmooth : 0.0f;
+    const float alpha = negligible || static_cast<float>(obtuse) < kObtuseFraction * static_cast<float>(end - begin)
+                            ? kAlphaSmooth
+                            : 0.0f;
 
     // F = (1/n) Σ_j E_{T_j}(C_j) ∇E_{T_j}(C_j) over the incident triangles.
     const uint32_t tri_begin = topo.incident_offsets[v], tri_end = topo.incident_offsets[v + 1];
@@ -257,8 +257,8 @@ void fold_step(const FairingTopology& topo, const glm::vec3* skeletal, const flo
     const float rest_shape_weight =
         targets.umbrella ? std::min(1.0f, std::max(radius[v], 0.0f) / (kRestShapeRadius * edge)) : 1.0f;
     ws.tangential_weight[v] = rest_shape_weight;
-    ws.displacement[v] = semi_implicit ? -step * force
-                                       : -step * (alpha * smooth + force + rest_shape_weight * tangential);
+    ws.displacement[v] =
+        semi_implicit ? -step * force : -step * (alpha * smooth + force + rest_shape_weight * tangential);
   }
 
   if (!semi_implicit) {
@@ -273,11 +273,11 @@ void fold_step(const FairingTopology& topo, const glm::vec3* skeletal, const flo
 
 struct Grid {
   glm::vec3 origin{0.0f};
-  glm::vec3 cell{1.0f};      // cell size per axis
+  glm::vec3 cell{1.0f};  // cell size per axis
   glm::vec3 inverse_cell{1.0f};
-  int size = 1;              // cells per axis
-  int ring[3] = {1, 1, 1};   // ⌈max d / cell⌉ per axis, at least 1 (the paper's 3×3×3)
-  float max_radius = 0.0f;   // largest d
+  int size = 1;             // cells per axis
+  int ring[3] = {1, 1, 1};  // ⌈max d / cell⌉ per axis, at least 1 (the paper's 3×3×3)
+  float max_radius = 0.0f;  // largest d
 };
 
 // The cell of coordinate x along one axis, in [0, size). Clamped while still a float: the
@@ -330,7 +330,8 @@ Grid build_grid(const FairingTopology& topo, const glm::vec3* skeletal, const fl
       continue;
     }
     const size_t c = (size_t(cell_coordinate(s.z, grid.origin.z, grid.inverse_cell.z, size)) * size +
-                      size_t(cell_coordinate(s.y, grid.origin.y, grid.inverse_cell.y, size))) * size +
+                      size_t(cell_coordinate(s.y, grid.origin.y, grid.inverse_cell.y, size))) *
+                         size +
                      size_t(cell_coordinate(s.x, grid.origin.x, grid.inverse_cell.x, size));
     ws.vertex_cell[v] = static_cast<uint32_t>(c);
     ++ws.cell_offsets[c + 1];
@@ -407,7 +408,8 @@ void slot_minimum(const glm::vec3& x, const FairingWorkspace& ws, uint32_t begin
 // cells — the paper's 3×3×3, widened to rings of ⌈max d / cell⌉ (DESIGN.md), and further if
 // still no skeletal vertex was found, so f is always defined. Skeletal vertex `exclude` (the
 // vertex's own ball, relative to rest; none = no exclusion) is left out of the minimum.
-FieldValue field_at(const Grid& grid, const glm::vec3& x, const FairingWorkspace& ws, uint32_t exclude = std::numeric_limits<uint32_t>::max()) {
+FieldValue field_at(const Grid& grid, const glm::vec3& x, const FairingWorkspace& ws,
+                    uint32_t exclude = std::numeric_limits<uint32_t>::max()) {
   const int n = grid.size;
   const int cx = cell_coordinate(x.x, grid.origin.x, grid.inverse_cell.x, n);
   const int cy = cell_coordinate(x.y, grid.origin.y, grid.inverse_cell.y, n);
@@ -679,9 +681,8 @@ float toward(const glm::vec3& n, const glm::vec3& foot, float foot_radius, const
 // four triangles at a time (interior_lanes4 below: the same operations per lane, so the same
 // bits; measured ~3 % off a whole CesiumMan_loop2 evaluation). Inputs: P − c_0 (w0), e_1, e_2,
 // r_0, δ_1, δ_2. Returns whether the stationary point exists and lies in the triangle.
-inline bool interior_lane(float w0x, float w0y, float w0z, float e1x, float e1y, float e1z, float e2x,
-                          float e2y, float e2z, float r0, float d1, float d2, float& value, float& nx,
-                          float& ny, float& nz) {
+inline bool interior_lane(float w0x, float w0y, float w0z, float e1x, float e1y, float e1z, float e2x, float e2y,
+                          float e2z, float r0, float d1, float d2, float& value, float& nx, float& ny, float& nz) {
   const float g11 = e1x * e1x + e1y * e1y + e1z * e1z;
   const float g12 = e1x * e2x + e1y * e2y + e1z * e2z;
   const float g22 = e2x * e2x + e2y * e2y + e2z * e2z;
@@ -718,10 +719,10 @@ inline bool interior_lane(float w0x, float w0y, float w0z, float e1x, float e1y,
 // dispatch): lane by lane the same IEEE operations in the same order (selects as and/andnot/or,
 // ±1 and |w| as in the scalar code), so every lane has interior_lane's bits. Reads and writes
 // elements [i, i + 4) of the block's arrays; inside[k] as interior_lane's return value.
-inline void interior_lanes4(const float* w0x, const float* w0y, const float* w0z, const float* e1x,
-                            const float* e1y, const float* e1z, const float* e2x, const float* e2y,
-                            const float* e2z, const float* r0, const float* d1, const float* d2, float* value,
-                            float* nx, float* ny, float* nz, bool* inside) {
+inline void interior_lanes4(const float* w0x, const float* w0y, const float* w0z, const float* e1x, const float* e1y,
+                            const float* e1z, const float* e2x, const float* e2y, const float* e2z, const float* r0,
+                            const float* d1, const float* d2, float* value, float* nx, float* ny, float* nz,
+                            bool* inside) {
   using namespace lane4;
   const __m128 zero = _mm_setzero_ps(), one = _mm_set1_ps(1.0f);
   const __m128 sign = _mm_set1_ps(-0.0f);
@@ -732,8 +733,7 @@ inline void interior_lanes4(const float* w0x, const float* w0y, const float* w0z
   const __m128 g12 = add(add(mul(ax, bx), mul(ay, by)), mul(az, bz));
   const __m128 g22 = add(add(mul(bx, bx), mul(by, by)), mul(bz, bz));
   const __m128 det = sub(mul(g11, g22), mul(g12, g12));
-  const __m128 det_ok =
-      _mm_and_ps(_mm_cmpgt_ps(det, mul(mul(_mm_set1_ps(1e-6f), g11), g22)), _mm_cmpgt_ps(det, zero));
+  const __m128 det_ok = _mm_and_ps(_mm_cmpgt_ps(det, mul(mul(_mm_set1_ps(1e-6f), g11), g22)), _mm_cmpgt_ps(det, zero));
   const __m128 safe_det = select(det_ok, det, one);
   const __m128 inverse_det = _mm_div_ps(one, safe_det);
   const __m128 a = mul(add(mul(_mm_xor_ps(delta1, sign), g22), mul(delta2, g12)), inverse_det);
@@ -760,9 +760,9 @@ inline void interior_lanes4(const float* w0x, const float* w0y, const float* w0z
   _mm_storeu_ps(nx, normal_x);
   _mm_storeu_ps(ny, normal_y);
   _mm_storeu_ps(nz, normal_z);
-  const __m128 ok = _mm_and_ps(_mm_and_ps(_mm_and_ps(det_ok, q_ok), _mm_and_ps(_mm_cmpge_ps(beta1, zero),
-                                                                            _mm_cmpge_ps(beta2, zero))),
-                               _mm_cmple_ps(add(beta1, beta2), one));
+  const __m128 ok =
+      _mm_and_ps(_mm_and_ps(_mm_and_ps(det_ok, q_ok), _mm_and_ps(_mm_cmpge_ps(beta1, zero), _mm_cmpge_ps(beta2, zero))),
+                 _mm_cmple_ps(add(beta1, beta2), one));
   const int bits = _mm_movemask_ps(ok);
   for (int k = 0; k < 4; ++k) inside[k] = (bits >> k) & 1;
 }
@@ -848,16 +848,15 @@ HullDistance boundary_distance(const glm::vec3& p, const glm::vec3* c, const flo
 
 }  // namespace
 
-HullDistance ball_hull_distance(const glm::vec3& point, const glm::vec3* centres, const float* radii,
-                                uint8_t* hint) {
+HullDistance ball_hull_distance(const glm::vec3& point, const glm::vec3* centres, const float* radii, uint8_t* hint) {
   const glm::vec3& p = point;
   const glm::vec3* c = centres;
   const float* r = radii;
   const glm::vec3 w0 = p - c[0], e1 = c[1] - c[0], e2 = c[2] - c[0];
   float value = 0.0f, nx = 0.0f, ny = 0.0f, nz = 0.0f;
   HullDistance result;
-  if (interior_lane(w0.x, w0.y, w0.z, e1.x, e1.y, e1.z, e2.x, e2.y, e2.z, r[0], r[1] - r[0], r[2] - r[0], value, nx,
-                    ny, nz) &&
+  if (interior_lane(w0.x, w0.y, w0.z, e1.x, e1.y, e1.z, e2.x, e2.y, e2.z, r[0], r[1] - r[0], r[2] - r[0], value, nx, ny,
+                    nz) &&
       interior_result(value, nx, ny, nz, result)) {
     if (hint) *hint = kHullCaseInterior;
     return result;
@@ -920,8 +919,8 @@ inline int hinted_lanes4(const HullLanes& l, HullDistance e[4]) {
   const __m128 root = _mm_sqrt_ps(sub(one, mul(k, k)));
   const __m128 unclamped = add(a, _mm_div_ps(mul(k, h), root));
   // std::clamp(unclamped, 0, length): (v < 0 ? 0 : length < v ? length : v).
-  const __m128 s = select(_mm_cmplt_ps(unclamped, zero), zero,
-                          select(_mm_cmplt_ps(safe_length, unclamped), safe_length, unclamped));
+  const __m128 s =
+      select(_mm_cmplt_ps(unclamped, zero), zero, select(_mm_cmplt_ps(safe_length, unclamped), safe_length, unclamped));
   const __m128 inside_edge = _mm_and_ps(_mm_cmpgt_ps(unclamped, zero), _mm_cmplt_ps(unclamped, safe_length));
   const __m128 edge_ok = _mm_and_ps(_mm_and_ps(length_ok, k_ok), inside_edge);
   // The foot: on the edge, or ball a itself.
@@ -1040,8 +1039,10 @@ void triangle_forces(const FairingTopology& topo, const glm::vec3* skeletal, con
     HullDistance e[4];
     const int accepted = hinted_lanes4(lanes, e);
     for (uint32_t lane = 0; lane < 4; ++lane)
-      if ((accepted >> lane) & 1) store_force(hinted[k + lane], e[lane]);
-      else boundary(hinted[k + lane]);
+      if ((accepted >> lane) & 1)
+        store_force(hinted[k + lane], e[lane]);
+      else
+        boundary(hinted[k + lane]);
   }
 #endif
   for (; k < hinted_count; ++k) boundary(hinted[k]);
@@ -1051,8 +1052,8 @@ void triangle_forces(const FairingTopology& topo, const glm::vec3* skeletal, con
 
 // ---- topology, workspace, run ----------------------------------------------------------
 
-FairingTopology build_fairing_topology(const uint32_t* triangle_indices, size_t triangle_count,
-                                       size_t vertex_count, const AllocatorRef& allocator) {
+FairingTopology build_fairing_topology(const uint32_t* triangle_indices, size_t triangle_count, size_t vertex_count,
+                                       const AllocatorRef& allocator) {
   FairingTopology topo(allocator);
   topo.vertex_count = static_cast<uint32_t>(vertex_count);
   topo.triangle_count = static_cast<uint32_t>(triangle_count);
@@ -1160,9 +1161,9 @@ FairingWorkspace make_fairing_workspace(const FairingTopology& topology, uint32_
   return ws;
 }
 
-float fair_run(const FairingTopology& topology, const glm::vec3* skeletal, const float* radius,
-               glm::vec3* positions, size_t vertex_count, const FairingParams& params,
-               FairingWorkspace& workspace, const FairingRest* rest, const glm::mat3* frames) {
+float fair_run(const FairingTopology& topology, const glm::vec3* skeletal, const float* radius, glm::vec3* positions,
+               size_t vertex_count, const FairingParams& params, FairingWorkspace& workspace, const FairingRest* rest,
+               const glm::mat3* frames) {
   const uint32_t grid_size = params.grid_size == 0 ? kDefaultGridSize : params.grid_size;
   if (vertex_count != topology.vertex_count || workspace.vertex_count != topology.vertex_count ||
       workspace.triangle_count != topology.triangle_count || grid_size > workspace.grid_size)
@@ -1200,7 +1201,9 @@ float fair_run(const FairingTopology& topology, const glm::vec3* skeletal, const
       workspace.target_umbrella[v] = frames[v] * rest->umbrella[v];
       workspace.target_bi_umbrella[v] = frames[v] * rest->bi_umbrella[v];
     }
-    targets = {workspace.target_umbrella.data(), workspace.target_bi_umbrella.data(), rest->triangle_level.data(),
+    targets = {workspace.target_umbrella.data(),
+               workspace.target_bi_umbrella.data(),
+               rest->triangle_level.data(),
                rest->gap.data(),
                params.smoothing_reference ? workspace.reference_bi.data() : nullptr,
                rest->positions.size() == vertex_count ? rest->positions.data() : nullptr,
@@ -1218,8 +1221,7 @@ float fair_run(const FairingTopology& topology, const glm::vec3* skeletal, const
       fold_step(topology, skeletal, radius, positions, fold, params.semi_implicit, targets, workspace);
     if (params.intersection_flow)
       intersection_step(topology, grid, skeletal, radius, positions, intersect, params.semi_implicit, iteration == 0,
-                        targets,
-                        workspace);
+                        targets, workspace);
     float moved = 0.0f;  // largest squared motion: one square root at the end
     for (size_t v = 0; v < vertex_count; ++v) {
       const glm::vec3 d = positions[v] - workspace.iteration_start[v];
@@ -1353,8 +1355,8 @@ uint32_t lane_frames(const FairingTopology& topology, const glm::vec3* skeletal,
     const __m128 e_dot_n = dot(ex, ey, ez, nx, ny, nz);
     __m128 tx = sub(ex, mul(e_dot_n, nx)), ty = sub(ey, mul(e_dot_n, ny)), tz = sub(ez, mul(e_dot_n, nz));
     const __m128 t2 = dot(tx, ty, tz, tx, ty, tz);
-    main = _mm_and_ps(main, _mm_and_ps(_mm_cmpgt_ps(t2, mul(parallel, dot(ex, ey, ez, ex, ey, ez))),
-                                       _mm_cmple_ps(t2, largest)));
+    main = _mm_and_ps(
+        main, _mm_and_ps(_mm_cmpgt_ps(t2, mul(parallel, dot(ex, ey, ez, ex, ey, ez))), _mm_cmple_ps(t2, largest)));
     const __m128 t_inverse = _mm_div_ps(one, _mm_sqrt_ps(t2));
     tx = mul(tx, t_inverse), ty = mul(ty, t_inverse), tz = mul(tz, t_inverse);
     // glm::cross(normal, tangent).

@@ -31,19 +31,22 @@ namespace skelform::runtime {
 // Connectivity of the control mesh, built once per asset; immutable afterwards.
 struct FairingTopology {
   explicit FairingTopology(const AllocatorRef& a)
-      : triangle_indices(CallbackAllocator<uint32_t>(a)), neighbour_offsets(CallbackAllocator<uint32_t>(a)),
-        neighbours(CallbackAllocator<uint32_t>(a)), incident_offsets(CallbackAllocator<uint32_t>(a)),
-        incident_triangles(CallbackAllocator<uint32_t>(a)), fixed(CallbackAllocator<uint8_t>(a)),
+      : triangle_indices(CallbackAllocator<uint32_t>(a)),
+        neighbour_offsets(CallbackAllocator<uint32_t>(a)),
+        neighbours(CallbackAllocator<uint32_t>(a)),
+        incident_offsets(CallbackAllocator<uint32_t>(a)),
+        incident_triangles(CallbackAllocator<uint32_t>(a)),
+        fixed(CallbackAllocator<uint8_t>(a)),
         bi_umbrella_diagonal(CallbackAllocator<float>(a)) {}
 
   uint32_t vertex_count = 0;
   uint32_t triangle_count = 0;
-  Array<uint32_t> triangle_indices;   // 3 per triangle, copied from the asset
-  Array<uint32_t> neighbour_offsets;  // vertex_count + 1: one-ring of v is neighbours[o[v] .. o[v+1])
-  Array<uint32_t> neighbours;         // each neighbour once, ascending
-  Array<uint32_t> incident_offsets;   // vertex_count + 1: triangles around v (CSR)
-  Array<uint32_t> incident_triangles; // ascending triangle indices
-  Array<uint8_t> fixed;               // 1 = open-border or isolated vertex: never moved
+  Array<uint32_t> triangle_indices;    // 3 per triangle, copied from the asset
+  Array<uint32_t> neighbour_offsets;   // vertex_count + 1: one-ring of v is neighbours[o[v] .. o[v+1])
+  Array<uint32_t> neighbours;          // each neighbour once, ascending
+  Array<uint32_t> incident_offsets;    // vertex_count + 1: triangles around v (CSR)
+  Array<uint32_t> incident_triangles;  // ascending triangle indices
+  Array<uint8_t> fixed;                // 1 = open-border or isolated vertex: never moved
   // ν_v = 1 + (1/n_v) Σ_j 1/n_j: the diagonal of the bi-umbrella U² (Kobbelt et al. 1998),
   // the semi-implicit solve's pivot. 0 for fixed vertices.
   Array<float> bi_umbrella_diagonal;
@@ -54,8 +57,8 @@ struct FairingTopology {
 // validated them). Degenerate triangles (a repeated index) are ignored for the one-rings.
 // Allocates through `allocator`; throws std::bad_alloc when it fails (callers at the C API
 // catch it).
-FairingTopology build_fairing_topology(const uint32_t* triangle_indices, size_t triangle_count,
-                                       size_t vertex_count, const AllocatorRef& allocator);
+FairingTopology build_fairing_topology(const uint32_t* triangle_indices, size_t triangle_count, size_t vertex_count,
+                                       const AllocatorRef& allocator);
 
 // Default dimensionless steps (FairingParams: 0 = these).
 constexpr float kDefaultFoldStepExplicit = 0.2f;
@@ -105,49 +108,59 @@ struct FairingParams {
 // Every buffer fair_run() needs, sized once for a topology and a grid resolution. Per instance.
 struct FairingWorkspace {
   explicit FairingWorkspace(const AllocatorRef& a)
-      : umbrella(CallbackAllocator<glm::vec3>(a)), bi_umbrella(CallbackAllocator<glm::vec3>(a)),
-        triangle_force(CallbackAllocator<glm::vec3>(a)), displacement(CallbackAllocator<glm::vec3>(a)),
-        start_positions(CallbackAllocator<glm::vec3>(a)), smoothing_weight(CallbackAllocator<float>(a)),
+      : umbrella(CallbackAllocator<glm::vec3>(a)),
+        bi_umbrella(CallbackAllocator<glm::vec3>(a)),
+        triangle_force(CallbackAllocator<glm::vec3>(a)),
+        displacement(CallbackAllocator<glm::vec3>(a)),
+        start_positions(CallbackAllocator<glm::vec3>(a)),
+        smoothing_weight(CallbackAllocator<float>(a)),
         tangential_weight(CallbackAllocator<float>(a)),
-        force_direction(CallbackAllocator<glm::vec3>(a)), cell_offsets(CallbackAllocator<uint32_t>(a)),
+        force_direction(CallbackAllocator<glm::vec3>(a)),
+        cell_offsets(CallbackAllocator<uint32_t>(a)),
         cell_vertices(CallbackAllocator<uint32_t>(a)),
-        vertex_cell(CallbackAllocator<uint32_t>(a)), cell_x(CallbackAllocator<float>(a)),
-        cell_y(CallbackAllocator<float>(a)), cell_z(CallbackAllocator<float>(a)), cell_rr(CallbackAllocator<float>(a)),
+        vertex_cell(CallbackAllocator<uint32_t>(a)),
+        cell_x(CallbackAllocator<float>(a)),
+        cell_y(CallbackAllocator<float>(a)),
+        cell_z(CallbackAllocator<float>(a)),
+        cell_rr(CallbackAllocator<float>(a)),
         target_umbrella(CallbackAllocator<glm::vec3>(a)),
-        target_bi_umbrella(CallbackAllocator<glm::vec3>(a)), iteration_start(CallbackAllocator<glm::vec3>(a)),
-        minimiser(CallbackAllocator<uint32_t>(a)), next_minimiser(CallbackAllocator<uint32_t>(a)),
-        reference_bi(CallbackAllocator<glm::vec3>(a)), bi_reference(CallbackAllocator<glm::vec3>(a)),
+        target_bi_umbrella(CallbackAllocator<glm::vec3>(a)),
+        iteration_start(CallbackAllocator<glm::vec3>(a)),
+        minimiser(CallbackAllocator<uint32_t>(a)),
+        next_minimiser(CallbackAllocator<uint32_t>(a)),
+        reference_bi(CallbackAllocator<glm::vec3>(a)),
+        bi_reference(CallbackAllocator<glm::vec3>(a)),
         hull_case(CallbackAllocator<uint8_t>(a)) {}
 
   uint32_t vertex_count = 0;
   uint32_t triangle_count = 0;
-  uint32_t grid_size = 0;                // largest FairingParams::grid_size this workspace serves
-  Array<glm::vec3> umbrella;             // U(p) per vertex
-  Array<glm::vec3> bi_umbrella;          // U²(p) per vertex
-  Array<glm::vec3> triangle_force;       // E_T(C)·∇E_T(C) per triangle (flow (4)'s F terms)
-  Array<glm::vec3> displacement;         // explicit part of one step, per vertex
-  Array<glm::vec3> start_positions;      // positions before the step (semi-implicit right side)
-  Array<float> smoothing_weight;         // α (flow 4) or W (flow 5) per vertex
-  Array<float> tangential_weight;        // flow (4)'s weight of V per vertex
-  Array<glm::vec3> force_direction;      // F/|F| per vertex (flow 4), 0 where F = 0
-  Array<uint32_t> cell_offsets;          // grid_size³ + 1: skeletal vertices per cell (CSR; a row
-                                         // of cells along x is one run of slots)
-  Array<uint32_t> cell_vertices;         // vertex_count
-  Array<uint32_t> vertex_cell;           // vertex_count: scratch for the bucket sort
+  uint32_t grid_size = 0;            // largest FairingParams::grid_size this workspace serves
+  Array<glm::vec3> umbrella;         // U(p) per vertex
+  Array<glm::vec3> bi_umbrella;      // U²(p) per vertex
+  Array<glm::vec3> triangle_force;   // E_T(C)·∇E_T(C) per triangle (flow (4)'s F terms)
+  Array<glm::vec3> displacement;     // explicit part of one step, per vertex
+  Array<glm::vec3> start_positions;  // positions before the step (semi-implicit right side)
+  Array<float> smoothing_weight;     // α (flow 4) or W (flow 5) per vertex
+  Array<float> tangential_weight;    // flow (4)'s weight of V per vertex
+  Array<glm::vec3> force_direction;  // F/|F| per vertex (flow 4), 0 where F = 0
+  Array<uint32_t> cell_offsets;      // grid_size³ + 1: skeletal vertices per cell (CSR; a row
+                                     // of cells along x is one run of slots)
+  Array<uint32_t> cell_vertices;     // vertex_count
+  Array<uint32_t> vertex_cell;       // vertex_count: scratch for the bucket sort
   // S and d² of cell_vertices[k] at k (vertex_count + 3: flow (5)'s search reads 4 at a time)
   Array<float> cell_x, cell_y, cell_z, cell_rr;
-  Array<glm::vec3> target_umbrella;      // rest U turned into this evaluation's frames (FairingRest)
-  Array<glm::vec3> target_bi_umbrella;   // rest U², likewise
-  Array<glm::vec3> iteration_start;      // positions before the last iteration (its net motion)
-  const uint8_t* caller_fixed = nullptr; // FairingParams::fixed of the current run
-  Array<uint32_t> minimiser;             // flow (5)'s minimising skeletal vertex per vertex
-  Array<uint32_t> next_minimiser;        // tracked minimisers of this call (then moved to minimiser)
-  uint32_t search_stride = 0;            // FairingParams::search_stride of the current run
-  uint32_t search_phase = 0;             // which vertices search the grid at this call
-  Array<glm::vec3> reference_bi;         // U² of FairingParams::smoothing_reference
-  Array<glm::vec3> bi_reference;         // U²(x) − reference_bi
-  const float* rest_edge = nullptr;      // FairingRest::mean_edge of the current run, or null
-  Array<uint8_t> hull_case;              // per triangle: ball_hull_distance's hint (kHullCase*)
+  Array<glm::vec3> target_umbrella;       // rest U turned into this evaluation's frames (FairingRest)
+  Array<glm::vec3> target_bi_umbrella;    // rest U², likewise
+  Array<glm::vec3> iteration_start;       // positions before the last iteration (its net motion)
+  const uint8_t* caller_fixed = nullptr;  // FairingParams::fixed of the current run
+  Array<uint32_t> minimiser;              // flow (5)'s minimising skeletal vertex per vertex
+  Array<uint32_t> next_minimiser;         // tracked minimisers of this call (then moved to minimiser)
+  uint32_t search_stride = 0;             // FairingParams::search_stride of the current run
+  uint32_t search_phase = 0;              // which vertices search the grid at this call
+  Array<glm::vec3> reference_bi;          // U² of FairingParams::smoothing_reference
+  Array<glm::vec3> bi_reference;          // U²(x) − reference_bi
+  const float* rest_edge = nullptr;       // FairingRest::mean_edge of the current run, or null
+  Array<uint8_t> hull_case;               // per triangle: ball_hull_distance's hint (kHullCase*)
 };
 
 // The flows measured from the rest pose (a departure from the paper, DESIGN.md notes): on a
@@ -164,10 +177,14 @@ struct FairingWorkspace {
 // from rest the flows act as the paper's on what the pose changed. Built once per asset by make_fairing_rest().
 struct FairingRest {
   explicit FairingRest(const AllocatorRef& a)
-      : umbrella(CallbackAllocator<glm::vec3>(a)), bi_umbrella(CallbackAllocator<glm::vec3>(a)),
-        triangle_level(CallbackAllocator<float>(a)), gap(CallbackAllocator<float>(a)),
-        edge_2d(CallbackAllocator<glm::vec2>(a)), mean_edge(CallbackAllocator<float>(a)),
-        positions(CallbackAllocator<glm::vec3>(a)), skeletal(CallbackAllocator<glm::vec3>(a)) {}
+      : umbrella(CallbackAllocator<glm::vec3>(a)),
+        bi_umbrella(CallbackAllocator<glm::vec3>(a)),
+        triangle_level(CallbackAllocator<float>(a)),
+        gap(CallbackAllocator<float>(a)),
+        edge_2d(CallbackAllocator<glm::vec2>(a)),
+        mean_edge(CallbackAllocator<float>(a)),
+        positions(CallbackAllocator<glm::vec3>(a)),
+        skeletal(CallbackAllocator<glm::vec3>(a)) {}
   Array<glm::vec3> umbrella;     // U(M_rest) per vertex, in its rest local frame (fairing_frames)
   Array<glm::vec3> bi_umbrella;  // U²(M_rest) per vertex, in its rest local frame
   Array<float> triangle_level;   // E_T(C) of every triangle at rest
@@ -218,9 +235,9 @@ FairingWorkspace make_fairing_workspace(const FairingTopology& topology, uint32_
 // results beyond their own one-ring (their forces are skipped).
 // With `rest` and `frames` (this evaluation's fairing_frames of the reconstruction), every
 // term is relative to the rest pose (FairingRest); without them (null), the paper's flows.
-float fair_run(const FairingTopology& topology, const glm::vec3* skeletal, const float* radius,
-               glm::vec3* positions, size_t vertex_count, const FairingParams& params,
-               FairingWorkspace& workspace, const FairingRest* rest = nullptr, const glm::mat3* frames = nullptr);
+float fair_run(const FairingTopology& topology, const glm::vec3* skeletal, const float* radius, glm::vec3* positions,
+               size_t vertex_count, const FairingParams& params, FairingWorkspace& workspace,
+               const FairingRest* rest = nullptr, const glm::mat3* frames = nullptr);
 
 // E_T(P) of flow (4) and its gradient: the signed distance from `point` to the convex hull of
 // the three balls (centres[i], radii[i]) — E_T(P) = min over barycentric b of

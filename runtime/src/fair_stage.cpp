@@ -54,8 +54,8 @@ void fair_stage(sf_instance& instance, const FairStageOptions& options) {
   }
   // A switch of driver (handles ↔ skin) is a jump too.
   const bool jump = static_cast<float>(changed) > kPoseJumpFraction * static_cast<float>(n);
-  const bool warm = !options.from_rest && instance.has_fairing_offset && !jump &&
-                    instance.fairing_driver == instance.driver;
+  const bool warm =
+      !options.from_rest && instance.has_fairing_offset && !jump && instance.fairing_driver == instance.driver;
   instance.fairing_driver = instance.driver;
   // Annealing. f is a minimum over balls and α a threshold rule, so the flows' right-hand
   // sides jump where the minimiser or the rule switches, and fixed steps chatter there with an

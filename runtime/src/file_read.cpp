@@ -19,7 +19,8 @@ constexpr size_t kGlbHeaderBytes = 12;  // magic, version, total length
 }
 
 [[noreturn]] void beyond_limit(const std::string& path, size_t limit) {
-  refuse(SF_ERROR_UNSUPPORTED, path, "larger than " + std::to_string(limit) + " bytes, the most sf_asset_load_file reads");
+  refuse(SF_ERROR_UNSUPPORTED, path,
+         "larger than " + std::to_string(limit) + " bytes, the most sf_asset_load_file reads");
 }
 
 // Appends up to `count` bytes of `in` to `bytes`; false when the stream ended first.
@@ -76,8 +77,8 @@ std::vector<unsigned char> read_asset_file(const std::string& path, size_t limit
   std::ifstream in(path, std::ios::binary);
   if (!in) refuse(SF_ERROR_IO, path, "cannot open the file");
   uintmax_t size = 0;
-  const bool sized = std::filesystem::is_regular_file(status) &&
-                     (size = std::filesystem::file_size(path, error), !error);
+  const bool sized =
+      std::filesystem::is_regular_file(status) && (size = std::filesystem::file_size(path, error), !error);
   std::vector<unsigned char> bytes = sized ? read_regular(in, path, size, limit) : read_stream(in, path, limit);
   if (in.bad()) refuse(SF_ERROR_IO, path, "read error");
   if (bytes.empty()) refuse(SF_ERROR_INVALID_DATA, path, "empty file");

@@ -26,8 +26,10 @@ std::string one_line(std::string text) {
   while (!text.empty() && (text.back() == '\n' || text.back() == '\r' || text.back() == ' ')) text.pop_back();
   std::string out;
   for (char c : text) {
-    if (c == '\n') out += "; ";
-    else if (c != '\r') out += c;
+    if (c == '\n')
+      out += "; ";
+    else if (c != '\r')
+      out += c;
   }
   return out;
 }
@@ -36,8 +38,7 @@ uint32_t read_u32_le(const unsigned char* p) {
   return uint32_t{p[0]} | uint32_t{p[1]} << 8 | uint32_t{p[2]} << 16 | uint32_t{p[3]} << 24;
 }
 
-bool skip_image(tinygltf::Image*, const int, std::string*, std::string*, int, int, const unsigned char*, int,
-                void*) {
+bool skip_image(tinygltf::Image*, const int, std::string*, std::string*, int, int, const unsigned char*, int, void*) {
   return true;
 }
 
@@ -48,11 +49,14 @@ size_t check_glb_container(const unsigned char* bytes, size_t size, const std::s
   if (std::memcmp(bytes, "glTF", 4) != 0) invalid(name, "not a binary glTF file (bad magic)");
   const uint32_t version = read_u32_le(bytes + 4);
   if (version != 2)
-    throw GltfError(GltfError::unsupported, name + ": binary glTF version " + std::to_string(version) + " (only 2 is supported)");
+    throw GltfError(GltfError::unsupported,
+                    name + ": binary glTF version " + std::to_string(version) + " (only 2 is supported)");
   const uint64_t length = read_u32_le(bytes + 8);
   if (length > size)
-    invalid(name, "truncated .glb (header says " + std::to_string(length) + " bytes, file has " + std::to_string(size) + ")");
-  if (length < 20) invalid(name, "malformed .glb (declared length " + std::to_string(length) + " leaves no room for the JSON chunk)");
+    invalid(name,
+            "truncated .glb (header says " + std::to_string(length) + " bytes, file has " + std::to_string(size) + ")");
+  if (length < 20)
+    invalid(name, "malformed .glb (declared length " + std::to_string(length) + " leaves no room for the JSON chunk)");
   const uint64_t json_length = read_u32_le(bytes + 12);
   if (read_u32_le(bytes + 16) != 0x4E4F534Au) invalid(name, "malformed .glb (first chunk is not JSON)");
   if (json_length == 0) invalid(name, "malformed .glb (empty JSON chunk)");
@@ -60,7 +64,8 @@ size_t check_glb_container(const unsigned char* bytes, size_t size, const std::s
     invalid(name, "truncated .glb (JSON chunk of " + std::to_string(json_length) + " bytes does not fit)");
   uint64_t offset = 20 + json_length;
   while (offset < length) {
-    if (length - offset < 8) invalid(name, "truncated .glb (chunk header cut off at byte " + std::to_string(offset) + ")");
+    if (length - offset < 8)
+      invalid(name, "truncated .glb (chunk header cut off at byte " + std::to_string(offset) + ")");
     const uint64_t chunk_length = read_u32_le(bytes + offset);
     if (chunk_length > length - offset - 8)
       invalid(name, "truncated .glb (chunk at byte " + std::to_string(offset) + " declares " +
@@ -90,37 +95,56 @@ std::string directory_of(const std::string& path) {
 int component_size(int component_type) {
   switch (component_type) {
     case TINYGLTF_COMPONENT_TYPE_BYTE:
-    case TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE: return 1;
+    case TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE:
+      return 1;
     case TINYGLTF_COMPONENT_TYPE_SHORT:
-    case TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT: return 2;
+    case TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT:
+      return 2;
     case TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT:
-    case TINYGLTF_COMPONENT_TYPE_FLOAT: return 4;
-    default: return 0;  // INT and DOUBLE are not glTF 2.0 accessor component types
+    case TINYGLTF_COMPONENT_TYPE_FLOAT:
+      return 4;
+    default:
+      return 0;  // INT and DOUBLE are not glTF 2.0 accessor component types
   }
 }
 
 const char* component_name(int component_type) {
   switch (component_type) {
-    case TINYGLTF_COMPONENT_TYPE_BYTE: return "BYTE";
-    case TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE: return "UNSIGNED_BYTE";
-    case TINYGLTF_COMPONENT_TYPE_SHORT: return "SHORT";
-    case TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT: return "UNSIGNED_SHORT";
-    case TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT: return "UNSIGNED_INT";
-    case TINYGLTF_COMPONENT_TYPE_FLOAT: return "FLOAT";
-    default: return "an invalid component type";
+    case TINYGLTF_COMPONENT_TYPE_BYTE:
+      return "BYTE";
+    case TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE:
+      return "UNSIGNED_BYTE";
+    case TINYGLTF_COMPONENT_TYPE_SHORT:
+      return "SHORT";
+    case TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT:
+      return "UNSIGNED_SHORT";
+    case TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT:
+      return "UNSIGNED_INT";
+    case TINYGLTF_COMPONENT_TYPE_FLOAT:
+      return "FLOAT";
+    default:
+      return "an invalid component type";
   }
 }
 
 const char* type_name(int type) {
   switch (type) {
-    case TINYGLTF_TYPE_SCALAR: return "SCALAR";
-    case TINYGLTF_TYPE_VEC2: return "VEC2";
-    case TINYGLTF_TYPE_VEC3: return "VEC3";
-    case TINYGLTF_TYPE_VEC4: return "VEC4";
-    case TINYGLTF_TYPE_MAT2: return "MAT2";
-    case TINYGLTF_TYPE_MAT3: return "MAT3";
-    case TINYGLTF_TYPE_MAT4: return "MAT4";
-    default: return "an invalid type";
+    case TINYGLTF_TYPE_SCALAR:
+      return "SCALAR";
+    case TINYGLTF_TYPE_VEC2:
+      return "VEC2";
+    case TINYGLTF_TYPE_VEC3:
+      return "VEC3";
+    case TINYGLTF_TYPE_VEC4:
+      return "VEC4";
+    case TINYGLTF_TYPE_MAT2:
+      return "MAT2";
+    case TINYGLTF_TYPE_MAT3:
+      return "MAT3";
+    case TINYGLTF_TYPE_MAT4:
+      return "MAT4";
+    default:
+      return "an invalid type";
   }
 }
 
@@ -132,7 +156,8 @@ double decode_component(const unsigned char* p, int component_type, bool normali
       const double v = static_cast<int8_t>(p[0]);
       return normalized ? std::max(v / 127.0, -1.0) : v;
     }
-    case TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE: return normalized ? p[0] / 255.0 : p[0];
+    case TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE:
+      return normalized ? p[0] / 255.0 : p[0];
     case TINYGLTF_COMPONENT_TYPE_SHORT: {
       const double v = static_cast<int16_t>(static_cast<uint16_t>(p[0] | p[1] << 8));
       return normalized ? std::max(v / 32767.0, -1.0) : v;
@@ -141,14 +166,16 @@ double decode_component(const unsigned char* p, int component_type, bool normali
       const double v = static_cast<uint16_t>(p[0] | p[1] << 8);
       return normalized ? v / 65535.0 : v;
     }
-    case TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT: return read_u32_le(p);
+    case TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT:
+      return read_u32_le(p);
     case TINYGLTF_COMPONENT_TYPE_FLOAT: {
       const uint32_t bits = read_u32_le(p);
       float f;
       std::memcpy(&f, &bits, sizeof f);
       return f;
     }
-    default: return 0.0;
+    default:
+      return 0.0;
   }
 }
 
@@ -170,8 +197,8 @@ ByteRange view_bytes(const tinygltf::Model& model, int index, const std::string&
   const size_t buffer_size = buffer.data.size();
   if (view.byteOffset > buffer_size || view.byteLength > buffer_size - view.byteOffset)
     invalid(what, "bufferView " + std::to_string(index) + " (bytes " + std::to_string(view.byteOffset) + " + " +
-                      std::to_string(view.byteLength) + ") runs past the end of buffer " +
-                      std::to_string(view.buffer) + " (" + std::to_string(buffer_size) + " bytes)");
+                      std::to_string(view.byteLength) + ") runs past the end of buffer " + std::to_string(view.buffer) +
+                      " (" + std::to_string(buffer_size) + " bytes)");
   return {buffer.data.data() + view.byteOffset, view.byteLength};
 }
 
@@ -208,8 +235,8 @@ std::vector<double> read_components(const tinygltf::Model& model, int index, con
     std::string expected;
     for (int c : spec.component_types) expected += (expected.empty() ? "" : "/") + std::string(component_name(c));
     throw GltfError(spec.mismatch, where + " is " + component_name(accessor.componentType) + " " +
-                                            type_name(accessor.type) + "; expected " + expected + " " +
-                                            type_name(spec.type));
+                                       type_name(accessor.type) + "; expected " + expected + " " +
+                                       type_name(spec.type));
   }
   const bool is_float = accessor.componentType == TINYGLTF_COMPONENT_TYPE_FLOAT;
   if (is_float && accessor.normalized) invalid(where, "FLOAT components cannot be normalized");
@@ -257,7 +284,7 @@ std::vector<double> read_components(const tinygltf::Model& model, int index, con
     constexpr size_t kMaxImplicitElements = size_t{1} << 26;
     if (count > kMaxImplicitElements)
       throw GltfError(GltfError::unsupported, where + " has no bufferView and declares " + std::to_string(count) +
-                                              " elements (more than 2^26)");
+                                                  " elements (more than 2^26)");
     values.assign(count * components, 0.0);
   }
 
@@ -294,9 +321,8 @@ std::vector<double> read_components(const tinygltf::Model& model, int index, con
         invalid(sparse_where, "indices are not strictly increasing at position " + std::to_string(s));
       previous = target;
       for (size_t c = 0; c < components; ++c)
-        values[static_cast<size_t>(target) * components + c] =
-            decode_component(substitutes + s * element_bytes + c * component_bytes, accessor.componentType,
-                             accessor.normalized);
+        values[static_cast<size_t>(target) * components + c] = decode_component(
+            substitutes + s * element_bytes + c * component_bytes, accessor.componentType, accessor.normalized);
     }
   }
   return values;
@@ -310,9 +336,7 @@ void check_finite(const std::vector<double>& values, size_t components, const st
   }
 }
 
-AccessorSpec float_spec(int type) {
-  return {type, {TINYGLTF_COMPONENT_TYPE_FLOAT}, false, false};
-}
+AccessorSpec float_spec(int type) { return {type, {TINYGLTF_COMPONENT_TYPE_FLOAT}, false, false}; }
 
 bool requires_extension(const tinygltf::Model& model, const std::string& extension) {
   return std::find(model.extensionsRequired.begin(), model.extensionsRequired.end(), extension) !=
@@ -370,8 +394,10 @@ void check_json_nesting(const unsigned char* json, size_t size, const std::strin
   for (size_t i = 0; i < size; ++i) {
     const unsigned char c = json[i];
     if (in_string) {
-      if (c == '\\') ++i;
-      else if (c == '"') in_string = false;
+      if (c == '\\')
+        ++i;
+      else if (c == '"')
+        in_string = false;
     } else if (c == '"') {
       in_string = true;
     } else if (c == '[' || c == '{') {
@@ -388,8 +414,8 @@ void check_before_parsing(const unsigned char* bytes, size_t size, bool binary, 
   checked_length(bytes, size, binary, name);
 }
 
-void parse_model(const unsigned char* bytes, size_t size, bool binary, const std::string& name,
-                 tinygltf::Model& model, ExternalFiles external) {
+void parse_model(const unsigned char* bytes, size_t size, bool binary, const std::string& name, tinygltf::Model& model,
+                 ExternalFiles external) {
   if (!bytes || size == 0) invalid(name, "empty file");
   if (size > std::numeric_limits<unsigned int>::max())
     throw GltfError(GltfError::unsupported, name + ": file larger than 4 GiB");
@@ -415,22 +441,25 @@ void parse_model(const unsigned char* bytes, size_t size, bool binary, const std
     // tinygltf 2.7 reports most problems in `error` but indexes with at() in places: an
     // inconsistent file, not a failure of the loader. Its exception's text (a standard
     // library's internals) would tell the user nothing.
-    invalid(name, "not a valid glTF 2.0 file: the glTF parser failed on inconsistent data (for example a buffer "
-                  "whose byteLength is 0)");
+    invalid(name,
+            "not a valid glTF 2.0 file: the glTF parser failed on inconsistent data (for example a buffer "
+            "whose byteLength is 0)");
   }
   // Images are optional to tinygltf (a failed image read is a warning), so a remembered
   // failure only explains a failed parse.
   if (!ok && !access.first_failure.empty() && external == ExternalFiles::refuse)
-    throw GltfError(GltfError::unsupported, name + ": references external file '" + access.first_failure.substr(0, 200) +
+    throw GltfError(GltfError::unsupported, name + ": references external file '" +
+                                                access.first_failure.substr(0, 200) +
                                                 "', which loading from memory does not read (embed buffers as data "
                                                 "URIs or a .glb, or load from a file)");
   if (!ok && !access.first_failure.empty() && external == ExternalFiles::read_io_errors)
     throw GltfError(GltfError::io, name + ": cannot read external file '" + access.first_failure.substr(0, 200) + "'");
-  if (!ok) invalid(name, "not a valid glTF 2.0 file: " + (error.empty() ? std::string("parse failed") : one_line(error)));
+  if (!ok)
+    invalid(name, "not a valid glTF 2.0 file: " + (error.empty() ? std::string("parse failed") : one_line(error)));
   for (const char* extension : {"KHR_draco_mesh_compression", "EXT_meshopt_compression", "KHR_mesh_quantization"}) {
     if (requires_extension(model, extension))
       throw GltfError(GltfError::unsupported, name + ": requires " + extension +
-                                              ", which skelform does not decode (export uncompressed geometry)");
+                                                  ", which skelform does not decode (export uncompressed geometry)");
   }
 }
 
@@ -460,15 +489,14 @@ std::vector<glm::dmat4> read_mat4(const tinygltf::Model& model, int accessor, co
   std::vector<glm::dmat4> out(v.size() / 16);
   for (size_t i = 0; i < out.size(); ++i)
     for (int column = 0; column < 4; ++column)
-      for (int row = 0; row < 4; ++row) out[i][column][row] = v[16 * i + 4 * static_cast<size_t>(column) + static_cast<size_t>(row)];
+      for (int row = 0; row < 4; ++row)
+        out[i][column][row] = v[16 * i + 4 * static_cast<size_t>(column) + static_cast<size_t>(row)];
   return out;
 }
 
 std::vector<glm::uvec4> read_joints(const tinygltf::Model& model, int accessor, const std::string& what) {
-  const AccessorSpec spec{TINYGLTF_TYPE_VEC4,
-                          {TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE, TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT},
-                          false,
-                          true};
+  const AccessorSpec spec{
+      TINYGLTF_TYPE_VEC4, {TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE, TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT}, false, true};
   const std::vector<double> v = read_components(model, accessor, spec, what);
   std::vector<glm::uvec4> out(v.size() / 4);
   for (size_t i = 0; i < out.size(); ++i)
@@ -477,17 +505,18 @@ std::vector<glm::uvec4> read_joints(const tinygltf::Model& model, int accessor, 
 }
 
 std::vector<glm::dvec4> read_weights(const tinygltf::Model& model, int accessor, const std::string& what) {
-  const AccessorSpec spec{TINYGLTF_TYPE_VEC4,
-                          {TINYGLTF_COMPONENT_TYPE_FLOAT, TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE,
-                           TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT},
-                          true,
-                          false};
+  const AccessorSpec spec{
+      TINYGLTF_TYPE_VEC4,
+      {TINYGLTF_COMPONENT_TYPE_FLOAT, TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE, TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT},
+      true,
+      false};
   const std::vector<double> v = read_components(model, accessor, spec, what);
   std::vector<glm::dvec4> out(v.size() / 4);
   for (size_t i = 0; i < out.size(); ++i) {
     out[i] = glm::dvec4(v[4 * i], v[4 * i + 1], v[4 * i + 2], v[4 * i + 3]);
     if (out[i].x < 0 || out[i].y < 0 || out[i].z < 0 || out[i].w < 0)
-      invalid(what, "accessor " + std::to_string(accessor) + " element " + std::to_string(i) + " has a negative weight");
+      invalid(what,
+              "accessor " + std::to_string(accessor) + " element " + std::to_string(i) + " has a negative weight");
   }
   return out;
 }
@@ -513,7 +542,8 @@ std::vector<uint32_t> read_indices(const tinygltf::Model& model, int accessor, s
 std::vector<float> read_unit_scalars(const tinygltf::Model& model, int accessor, const std::string& what) {
   const std::vector<double> v = read_values(
       model, accessor, TINYGLTF_TYPE_SCALAR,
-      {TINYGLTF_COMPONENT_TYPE_FLOAT, TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE, TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT}, what);
+      {TINYGLTF_COMPONENT_TYPE_FLOAT, TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE, TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT},
+      what);
   std::vector<float> out(v.size());
   for (size_t i = 0; i < v.size(); ++i) {
     if (!(v[i] >= 0.0 && v[i] <= 1.0))
@@ -539,7 +569,8 @@ std::vector<double> read_exact(const tinygltf::Model& model, int accessor, int c
   AccessorSpec spec{kTypes[components - 1], {component_type}, false, true};
   spec.mismatch = GltfError::invalid;
   std::vector<double> values = read_components(model, accessor, spec, what);
-  if (component_type == TINYGLTF_COMPONENT_TYPE_FLOAT) check_finite(values, static_cast<size_t>(components), what, accessor);
+  if (component_type == TINYGLTF_COMPONENT_TYPE_FLOAT)
+    check_finite(values, static_cast<size_t>(components), what, accessor);
   return values;
 }
 

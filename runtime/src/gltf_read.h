@@ -91,8 +91,8 @@ void check_before_parsing(const unsigned char* bytes, size_t size, bool binary, 
 // naming the file; std::bad_alloc passes through. Files that require a geometry-compression
 // extension (Draco, meshopt, mesh quantization) are refused as unsupported. File paths are
 // never shell-expanded (tinygltf's default would).
-void parse_model(const unsigned char* bytes, size_t size, bool binary, const std::string& name,
-                 tinygltf::Model& model, ExternalFiles external = ExternalFiles::read);
+void parse_model(const unsigned char* bytes, size_t size, bool binary, const std::string& name, tinygltf::Model& model,
+                 ExternalFiles external = ExternalFiles::read);
 
 // The number of elements of accessor `accessor`, after checking the index and count >= 1.
 size_t accessor_count(const tinygltf::Model& model, int accessor, const std::string& what);

@@ -64,13 +64,21 @@ enum VertexRole : uint8_t {
 
 struct HandleSystem {
   explicit HandleSystem(const AllocatorRef& a)
-      : vertex_role(CallbackAllocator<uint8_t>(a)), vertex_ref(CallbackAllocator<uint32_t>(a)),
-        handle_slot(CallbackAllocator<uint32_t>(a)), slot_weight(CallbackAllocator<double>(a)),
-        coupling_offsets(CallbackAllocator<uint32_t>(a)), coupling_slot(CallbackAllocator<uint32_t>(a)),
-        coupling_weight(CallbackAllocator<double>(a)), permutation(CallbackAllocator<uint32_t>(a)),
-        factor_offsets(CallbackAllocator<uint32_t>(a)), factor_rows(CallbackAllocator<uint32_t>(a)),
-        factor_values(CallbackAllocator<double>(a)), factor_diagonal(CallbackAllocator<double>(a)),
-        basis(CallbackAllocator<double>(a)), slot_displacement(CallbackAllocator<double>(a)), work(CallbackAllocator<double>(a)) {}
+      : vertex_role(CallbackAllocator<uint8_t>(a)),
+        vertex_ref(CallbackAllocator<uint32_t>(a)),
+        handle_slot(CallbackAllocator<uint32_t>(a)),
+        slot_weight(CallbackAllocator<double>(a)),
+        coupling_offsets(CallbackAllocator<uint32_t>(a)),
+        coupling_slot(CallbackAllocator<uint32_t>(a)),
+        coupling_weight(CallbackAllocator<double>(a)),
+        permutation(CallbackAllocator<uint32_t>(a)),
+        factor_offsets(CallbackAllocator<uint32_t>(a)),
+        factor_rows(CallbackAllocator<uint32_t>(a)),
+        factor_values(CallbackAllocator<double>(a)),
+        factor_diagonal(CallbackAllocator<double>(a)),
+        basis(CallbackAllocator<double>(a)),
+        slot_displacement(CallbackAllocator<double>(a)),
+        work(CallbackAllocator<double>(a)) {}
 
   uint32_t vertex_count = 0;  // the deformable's control_vertex_count
   uint32_t free_count = 0;    // unknowns of the reduced system
@@ -95,7 +103,7 @@ struct HandleSystem {
   Array<uint32_t> factor_offsets;  // free_count + 1
   Array<uint32_t> factor_rows;
   Array<double> factor_values;
-  Array<double> factor_diagonal;   // D
+  Array<double> factor_diagonal;  // D
   // Path `basis`: G, free_count rows of slot_count entries (row f: the fields of every handle
   // at unknown f). The factor and coupling arrays are released then.
   Array<double> basis;
@@ -175,15 +183,14 @@ void release(Array<T>& a) {
 }  // namespace
 
 HandleSystem* handle_system_create(const Deformable& d, const uint32_t* handle_control, size_t handle_count,
-                                   const uint32_t* pinned_control, size_t pinned_count,
-                                   const AllocatorRef& alloc) {
+                                   const uint32_t* pinned_control, size_t pinned_count, const AllocatorRef& alloc) {
   return handle_system_create_with(d, handle_control, handle_count, pinned_control, pinned_count, alloc,
                                    HandleSolvePath::automatic);
 }
 
 HandleSystem* handle_system_create_with(const Deformable& d, const uint32_t* handle_control, size_t handle_count,
-                                        const uint32_t* pinned_control, size_t pinned_count,
-                                        const AllocatorRef& alloc, HandleSolvePath path) {
+                                        const uint32_t* pinned_control, size_t pinned_count, const AllocatorRef& alloc,
+                                        HandleSolvePath path) {
   const uint32_t n = d.control_vertex_count;
   if (handle_count == 0 || !handle_control) invalid("no handle");
   if (pinned_count > 0 && !pinned_control) invalid("pinned_count > 0 with no pinned array");
@@ -205,7 +212,9 @@ HandleSystem* handle_system_create_with(const Deformable& d, const uint32_t* han
     Array<uint32_t> slot_vertex{CallbackAllocator<uint32_t>(alloc)};
     for (size_t i = 0; i < handle_count; ++i) {
       const uint32_t v = handle_control[i];
-      if (v >= n) invalid("handle " + std::to_string(i) + " names control vertex " + std::to_string(v) + " of " + std::to_string(n));
+      if (v >= n)
+        invalid("handle " + std::to_string(i) + " names control vertex " + std::to_string(v) + " of " +
+                std::to_string(n));
       if (s->vertex_role[v] != kHandle) {
         s->vertex_role[v] = kHandle;
         s->vertex_ref[v] = uint32_t(slot_vertex.size());
@@ -220,7 +229,9 @@ HandleSystem* handle_system_create_with(const Deformable& d, const uint32_t* han
     for (uint32_t u = 0; u < s->slot_count; ++u) s->slot_weight[u] = 1.0 / slot_multiplicity[u];
     for (size_t i = 0; i < pinned_count; ++i) {
       const uint32_t v = pinned_control[i];
-      if (v >= n) invalid("pinned vertex " + std::to_string(i) + " names control vertex " + std::to_string(v) + " of " + std::to_string(n));
+      if (v >= n)
+        invalid("pinned vertex " + std::to_string(i) + " names control vertex " + std::to_string(v) + " of " +
+                std::to_string(n));
       if (s->vertex_role[v] == kHandle) invalid("control vertex " + std::to_string(v) + " is both a handle and pinned");
       s->vertex_role[v] = kStill;
     }
@@ -311,8 +322,7 @@ HandleSystem* handle_system_create_with(const Deformable& d, const uint32_t* han
 
       s->permutation.resize(free_count);
       const auto& p = ldlt.permutationP();
-      for (uint32_t i = 0; i < free_count; ++i)
-        s->permutation[i] = p.size() == 0 ? i : uint32_t(p.indices()[i]);
+      for (uint32_t i = 0; i < free_count; ++i) s->permutation[i] = p.size() == 0 ? i : uint32_t(p.indices()[i]);
 
       const SparseMatrix& l = ldlt.matrixL().nestedExpression();
       s->factor_offsets.assign(size_t(free_count) + 1, 0);
@@ -351,8 +361,7 @@ HandleSystem* handle_system_create_with(const Deformable& d, const uint32_t* han
           for (uint32_t k = s->coupling_offsets[f]; k < s->coupling_offsets[f + 1]; ++k)
             if (s->coupling_slot[k] == u) field[s->permutation[f]] += s->coupling_weight[k];
         substitute<1>(*s, field.data());
-        for (uint32_t f = 0; f < free_count; ++f)
-          s->basis[size_t(f) * s->slot_count + u] = field[s->permutation[f]];
+        for (uint32_t f = 0; f < free_count; ++f) s->basis[size_t(f) * s->slot_count + u] = field[s->permutation[f]];
       }
       release(s->coupling_offsets);
       release(s->coupling_slot);
@@ -416,7 +425,8 @@ void handle_system_solve(const HandleSystem& s, const Deformable& d, const glm::
     glm::dvec3 delta(0.0);
     if (s.vertex_role[v] == kFree && s.path == HandleSolvePath::basis) {
       const double* g = s.basis.data() + size_t(s.vertex_ref[v]) * s.slot_count;
-      for (uint32_t u = 0; u < s.slot_count; ++u) delta += g[u] * glm::dvec3(slot[3 * u], slot[3 * u + 1], slot[3 * u + 2]);
+      for (uint32_t u = 0; u < s.slot_count; ++u)
+        delta += g[u] * glm::dvec3(slot[3 * u], slot[3 * u + 1], slot[3 * u + 2]);
     } else if (s.vertex_role[v] == kFree) {
       const double* x = y + 3 * size_t(s.permutation[s.vertex_ref[v]]);
       delta = glm::dvec3(x[0], x[1], x[2]);

@@ -52,8 +52,7 @@ struct HandleSystem;
 // std::bad_alloc when memory runs out; std::runtime_error if the factorisation fails
 // (cannot happen for a valid mesh: the reduced system is positive definite by construction).
 HandleSystem* handle_system_create(const Deformable& d, const uint32_t* handle_control, size_t handle_count,
-                                   const uint32_t* pinned_control, size_t pinned_count,
-                                   const AllocatorRef& alloc);
+                                   const uint32_t* pinned_control, size_t pinned_count, const AllocatorRef& alloc);
 
 // How handle_system_solve evaluates the field (see the cost model above).
 enum class HandleSolvePath {
@@ -64,8 +63,8 @@ enum class HandleSolvePath {
 
 // handle_system_create with the path forced (tests and benchmarks compare the two).
 HandleSystem* handle_system_create_with(const Deformable& d, const uint32_t* handle_control, size_t handle_count,
-                                        const uint32_t* pinned_control, size_t pinned_count,
-                                        const AllocatorRef& alloc, HandleSolvePath path);
+                                        const uint32_t* pinned_control, size_t pinned_count, const AllocatorRef& alloc,
+                                        HandleSolvePath path);
 
 // The path a system uses (never `automatic`).
 HandleSolvePath handle_system_path(const HandleSystem& s);

@@ -50,19 +50,22 @@ enum class Driver : uint8_t {
 // scale and shear have no single radius scale: |det|^(1/3) is the volume-preserving mean.
 struct JointTransforms {
   explicit JointTransforms(const AllocatorRef& a)
-      : affine(CallbackAllocator<JointAffine>(a)), dual_quaternion(CallbackAllocator<JointDualQuaternion>(a)),
-        skin_affine(CallbackAllocator<JointAffine>(a)), skin_dual_quaternion(CallbackAllocator<JointDualQuaternion>(a)),
-        scale_ratio(CallbackAllocator<float>(a)), matrices(CallbackAllocator<glm::mat4>(a)) {}
+      : affine(CallbackAllocator<JointAffine>(a)),
+        dual_quaternion(CallbackAllocator<JointDualQuaternion>(a)),
+        skin_affine(CallbackAllocator<JointAffine>(a)),
+        skin_dual_quaternion(CallbackAllocator<JointDualQuaternion>(a)),
+        scale_ratio(CallbackAllocator<float>(a)),
+        matrices(CallbackAllocator<glm::mat4>(a)) {}
   // The caller's matrices as given: the LBS/DQS baselines and skelform's rigid parts.
   Array<JointAffine> affine;
   Array<JointDualQuaternion> dual_quaternion;
   // The same divided by `scale`: what the skeletal mesh is driven with.
   Array<JointAffine> skin_affine;
   Array<JointDualQuaternion> skin_dual_quaternion;
-  Array<float> scale_ratio;  // s_j / σ per joint
-  Array<glm::mat4> matrices; // the caller's matrices, as last set
-  float scale = 1.0f;        // σ
-  bool uniform = true;       // every scale_ratio is exactly 1
+  Array<float> scale_ratio;   // s_j / σ per joint
+  Array<glm::mat4> matrices;  // the caller's matrices, as last set
+  float scale = 1.0f;         // σ
+  bool uniform = true;        // every scale_ratio is exactly 1
 };
 
 // Prepares `joints` from column-major matrices (count = d.joint_count; finite, checked by the
@@ -74,7 +77,8 @@ void prepare_joints(const Deformable& d, const glm::mat4* matrices, JointTransfo
 // control vertex (a glTF seam) are averaged there by handles.h.
 struct HandleState {
   explicit HandleState(const AllocatorRef& a)
-      : original(CallbackAllocator<uint32_t>(a)), targets(CallbackAllocator<glm::vec3>(a)),
+      : original(CallbackAllocator<uint32_t>(a)),
+        targets(CallbackAllocator<glm::vec3>(a)),
         displacements(CallbackAllocator<glm::vec3>(a)) {}
   HandleSystem* system = nullptr;
   Array<uint32_t> original;        // per handle: original (dense) vertex id
@@ -130,7 +134,7 @@ void reconstruct_homotopy(const Deformable& d, const glm::vec3* rest_offset, con
 // fair_stage.cpp. Stage 3: flows (4) and (5) (fair.h) on instance.control (M from the
 // reconstruction, with S' in instance.skeletal), in place. `from_rest` discards the warm start
 // and runs to convergence. Options already validated by the caller.
-constexpr uint32_t kMaxIntersectionGrid = 32;     // workspace grid per instance (32³ cells)
+constexpr uint32_t kMaxIntersectionGrid = 32;      // workspace grid per instance (32³ cells)
 constexpr uint32_t kMaxFairingIterations = 1000;   // per evaluation, incremental budget
 constexpr uint32_t kDefaultFairingIterations = 1;  // per incremental evaluation
 constexpr uint32_t kConvergenceIterations = 64;    // cap from rest or after a pose jump
@@ -139,11 +143,11 @@ constexpr uint32_t kSearchStride = 16;             // warm: each vertex searches
 constexpr uint32_t kConvergenceChunk = 8;          // converging: iterations per fair_run() call
 constexpr uint32_t kAnnealAfter = 16;              // converging: full steps for this many iterations,
 constexpr float kAnnealRate = 0.3f;                // then steps × this per chunk
-constexpr float kPoseJumpFraction = 0.02f;  // of the control vertices: a pose jump
+constexpr float kPoseJumpFraction = 0.02f;         // of the control vertices: a pose jump
 constexpr float kPoseJumpShape = 0.25f;  // change of a vertex's local shape, in edge lengths, that is a pose jump
 
 struct FairStageOptions {
-  FairingParams params;        // flows, stepping, steps, grid; params.iterations = the budget
+  FairingParams params;  // flows, stepping, steps, grid; params.iterations = the budget
   bool from_rest = false;
 };
 void fair_stage(sf_instance& instance, const FairStageOptions& options);
@@ -233,11 +237,11 @@ struct sf_instance {
   bool contacts_enabled = false;
   skelform::runtime::Array<glm::mat3> fairing_frames;
   skelform::runtime::Array<glm::vec3> fairing_offset;
-  skelform::runtime::Array<glm::vec3> fairing_start;  // M before fairing
-  skelform::runtime::Array<glm::vec3> fairing_shape;  // U(M) per vertex in its frame (pose-jump test)
+  skelform::runtime::Array<glm::vec3> fairing_start;               // M before fairing
+  skelform::runtime::Array<glm::vec3> fairing_shape;               // U(M) per vertex in its frame (pose-jump test)
   skelform::runtime::Array<glm::vec3> fairing_reference_umbrella;  // U(M) (FairingParams::smoothing_reference_umbrella)
-  skelform::runtime::Array<float> fairing_mean_edge;  // mean one-ring edge length of M (pose-jump test)
-  skelform::runtime::Array<uint8_t> fairing_fixed;    // handle driver: vertices kept out of the fairing
+  skelform::runtime::Array<float> fairing_mean_edge;               // mean one-ring edge length of M (pose-jump test)
+  skelform::runtime::Array<uint8_t> fairing_fixed;                 // handle driver: vertices kept out of the fairing
   bool has_fairing_offset = false;
   float fairing_gain = 1.0f;  // step scale: halves per evaluation while the pose is held
   skelform::runtime::Driver fairing_driver = skelform::runtime::Driver::skin;  // of the stored correction

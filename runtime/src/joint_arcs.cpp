@@ -31,10 +31,10 @@ constexpr float kFit = 0.9f;     // the fillet's tangent points stay within this
 // but Fox's run 413 instead of 266; at 40, two of Fox's run frames above LBS).
 constexpr float kArcOnset = 0.75f, kArcFull = 1.25f;
 constexpr float kLargestFoldBend = kPi / 3.0f;
-constexpr double kBlendedWeight = 0.1;   // both of a pair above this: a vertex of the joint's blend
-constexpr double kLongestRestBend = 0.5; // cos 60°: straighter joints only
-constexpr double kSharedBone = 0.45;     // a zone's cap on a bone with a joint at each end
-constexpr double kEndBone = 0.9;         // ... on a bone that ends in the skin's first or last joint
+constexpr double kBlendedWeight = 0.1;    // both of a pair above this: a vertex of the joint's blend
+constexpr double kLongestRestBend = 0.5;  // cos 60°: straighter joints only
+constexpr double kSharedBone = 0.45;      // a zone's cap on a bone with a joint at each end
+constexpr double kEndBone = 0.9;          // ... on a bone that ends in the skin's first or last joint
 
 // Any unit vector perpendicular to unit `u`.
 glm::vec3 perpendicular(const glm::vec3& u) {
@@ -104,7 +104,8 @@ ArcPose make_arc_pose(const ArcJoint& joint, const glm::mat4& parent, const glm:
   pose.bulge = joint.section * (std::sqrt(1.0f + 1.5f * gain) - 1.0f) / 0.75f;
   // ... but the bulged limb stays inside the arc's radius (else its inner side would pinch
   // through the arc's centre and fold): past that the zone gives up volume instead.
-  if (joint.limb > 0.0f) pose.bulge = std::min(pose.bulge, std::max(kPinch * pose.arc_radius / joint.limb - 1.0f, 0.0f));
+  if (joint.limb > 0.0f)
+    pose.bulge = std::min(pose.bulge, std::max(kPinch * pose.arc_radius / joint.limb - 1.0f, 0.0f));
   return pose;
 }
 
@@ -173,7 +174,8 @@ void build_joint_arcs(const tinygltf::Model& model, Deformable& d) {
       joint_of_node[static_cast<size_t>(skin.joints[j])] = static_cast<int>(j);
   for (size_t n = 0; n < model.nodes.size(); ++n)
     for (int c : model.nodes[n].children)
-      if (c >= 0 && static_cast<size_t>(c) < model.nodes.size()) parent_node[static_cast<size_t>(c)] = static_cast<int>(n);
+      if (c >= 0 && static_cast<size_t>(c) < model.nodes.size())
+        parent_node[static_cast<size_t>(c)] = static_cast<int>(n);
   std::vector<int> parent(joints, -1);
   std::vector<std::vector<int>> children(joints);
   for (size_t j = 0; j < joints; ++j) {
@@ -263,7 +265,8 @@ void build_joint_arcs(const tinygltf::Model& model, Deformable& d) {
     const double limb = radius_sum / double(blended);
     // The dense surface around the control mesh: mean distance from the axis of the blended
     // dense vertices over that of the blended control vertices.
-    auto section_radius = [&](const glm::vec3* positions, const uint16_t* joint_index, const float* weight, uint32_t n) {
+    auto section_radius = [&](const glm::vec3* positions, const uint16_t* joint_index, const float* weight,
+                              uint32_t n) {
       double sum = 0.0;
       size_t used = 0;
       for (uint32_t v = 0; v < n; ++v) {
@@ -276,10 +279,10 @@ void build_joint_arcs(const tinygltf::Model& model, Deformable& d) {
       }
       return used ? sum / double(used) : 0.0;
     };
-    const double control_section = section_radius(d.control_positions.data(), d.control_joints.data(),
-                                                  d.control_weights.data(), count);
-    const double dense_section = section_radius(d.rest_positions.data(), d.dense_joints.data(), d.dense_weights.data(),
-                                                d.vertex_count);
+    const double control_section =
+        section_radius(d.control_positions.data(), d.control_joints.data(), d.control_weights.data(), count);
+    const double dense_section =
+        section_radius(d.rest_positions.data(), d.dense_joints.data(), d.dense_weights.data(), d.vertex_count);
     // Where linear blending folds: the inner side at the limb's radius r runs backwards once
     // r·θ·max dw/dz > 1 (fair_test.cpp, the bent capsule), w the child's share of the pair.
     // max dw/dz from the axial extent of the vertices with w in (0.02, 0.98): 0.83 of a

@@ -53,8 +53,8 @@ namespace skelform::runtime {
 
 struct Deformable;
 
-constexpr float kArcRadius = 1.5f;   // ρ, in limb radii
-constexpr float kArcZone = 4.0f;     // F, in limb radii
+constexpr float kArcRadius = 1.5f;  // ρ, in limb radii
+constexpr float kArcZone = 4.0f;    // F, in limb radii
 constexpr uint32_t kNoArc = 0xffffffffu;
 
 // One joint that bends along an arc, in bind space.
@@ -74,13 +74,13 @@ struct ArcJoint {
 // One control vertex's part in an arc joint (kNoArc: none, plain blending).
 struct ArcVertex {
   uint32_t joint = kNoArc;
-  float axial = 0.0f;   // (S − J)·u at bind
-  float share = 0.0f;   // w_parent + w_child: the part of its skin the arc replaces
+  float axial = 0.0f;  // (S − J)·u at bind
+  float share = 0.0f;  // w_parent + w_child: the part of its skin the arc replaces
 };
 
 // What an arc joint does in the current pose (from its two joint matrices).
 struct ArcPose {
-  JointAffine parent;          // A_P, the parent's joint matrix
+  JointAffine parent;            // A_P, the parent's joint matrix
   glm::vec3 bend_axis{1, 0, 0};  // e ⟂ u: the swing's axis
   glm::vec3 inward{0, 1, 0};     // e × u: the direction the arc turns to
   glm::vec3 bent_axis{0, 0, 1};  // R_e(θ)·u: the child's side of the centre line

@@ -16,8 +16,8 @@ namespace {
 glm::dvec3 widen(const glm::vec3& p) { return glm::dvec3(p); }
 
 bool share_corner(const uint32_t* a, const uint32_t* b) {
-  return a[0] == b[0] || a[0] == b[1] || a[0] == b[2] || a[1] == b[0] || a[1] == b[1] || a[1] == b[2] ||
-         a[2] == b[0] || a[2] == b[1] || a[2] == b[2];
+  return a[0] == b[0] || a[0] == b[1] || a[0] == b[2] || a[1] == b[0] || a[1] == b[1] || a[1] == b[2] || a[2] == b[0] ||
+         a[2] == b[1] || a[2] == b[2];
 }
 
 bool boxes_meet(const float* a, const float* b) {
@@ -109,7 +109,7 @@ void guard_intersections(const Deformable& d, const ContactMesh& mesh, const Den
     }
     if (!finite) {
       std::fill(ws.factor.begin(), ws.factor.end(), 0.0f);  // a non-finite position: LBS
-      ws.corrected_list.clear();  // (no ramp: nothing is above 0)
+      ws.corrected_list.clear();                            // (no ramp: nothing is above 0)
       return;
     }
     // Boxes at x, slot by slot, and the first round's triangles: those with a moved corner.
@@ -291,7 +291,9 @@ void volume_polynomial(const Deformable& d, const ContactMesh& mesh, const Dense
     const uint32_t* q = mesh.triangles.data() + 3 * size_t(t);
     const glm::dvec3 a = base(q[0]), b = base(q[1]), c = base(q[2]);
     const glm::dvec3 da = correction(q[0]), db = correction(q[1]), dc = correction(q[2]);
-    auto det = [](const glm::dvec3& x, const glm::dvec3& y, const glm::dvec3& z) { return glm::dot(x, glm::cross(y, z)); };
+    auto det = [](const glm::dvec3& x, const glm::dvec3& y, const glm::dvec3& z) {
+      return glm::dot(x, glm::cross(y, z));
+    };
     v[0] += det(a, b, c);
     v[1] += det(da, b, c) + det(a, db, c) + det(a, b, dc);
     v[2] += det(da, db, c) + det(da, b, dc) + det(a, db, dc);

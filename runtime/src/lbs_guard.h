@@ -46,42 +46,51 @@ namespace skelform::runtime {
 struct Deformable;
 struct DenseOutput;
 
-constexpr uint32_t kGuardHalvings = 4;  // rounds that halve λ before it drops to 0
-constexpr uint32_t kGuardRampRings = 2; // rings over which λ rises back from a corrected vertex
+constexpr uint32_t kGuardHalvings = 4;   // rounds that halve λ before it drops to 0
+constexpr uint32_t kGuardRampRings = 2;  // rings over which λ rises back from a corrected vertex
 constexpr uint32_t kVolumeAttempts = 3;  // volume shares tried before the last falls back to LBS
 
 // Scratch of one instance (make_guard_workspace), sized for its deformable's welded mesh.
 struct GuardWorkspace {
   explicit GuardWorkspace(const AllocatorRef& a)
-      : factor(CallbackAllocator<float>(a)), positions(CallbackAllocator<glm::vec3>(a)),
-        moved(CallbackAllocator<uint8_t>(a)), flagged(CallbackAllocator<uint8_t>(a)),
-        changed(CallbackAllocator<uint8_t>(a)), flagged_list(CallbackAllocator<uint32_t>(a)),
-        ramp(CallbackAllocator<float>(a)), lowered(CallbackAllocator<uint8_t>(a)),
-        corrected_list(CallbackAllocator<uint32_t>(a)), lowered_list(CallbackAllocator<uint32_t>(a)),
+      : factor(CallbackAllocator<float>(a)),
+        positions(CallbackAllocator<glm::vec3>(a)),
+        moved(CallbackAllocator<uint8_t>(a)),
+        flagged(CallbackAllocator<uint8_t>(a)),
+        changed(CallbackAllocator<uint8_t>(a)),
+        flagged_list(CallbackAllocator<uint32_t>(a)),
+        ramp(CallbackAllocator<float>(a)),
+        lowered(CallbackAllocator<uint8_t>(a)),
+        corrected_list(CallbackAllocator<uint32_t>(a)),
+        lowered_list(CallbackAllocator<uint32_t>(a)),
         tested(CallbackAllocator<uint8_t>(a)),
-        test_list(CallbackAllocator<uint32_t>(a)), boxes(a), reach_boxes(a), node_boxes(CallbackAllocator<float>(a)),
-        node_flags(CallbackAllocator<uint8_t>(a)), leaf_flags(CallbackAllocator<uint32_t>(a)) {}
-  Array<float> factor;           // λ per welded vertex
-  Array<glm::vec3> positions;    // x per welded vertex
-  Array<uint8_t> moved;          // per welded vertex: x differs from L
-  Array<uint8_t> flagged;        // per welded vertex: a corner of an added pair this round
-  Array<uint8_t> changed;        // per welded vertex: its λ changed this round
-  Array<uint32_t> flagged_list;  // the vertices flagged this round
-  Array<float> ramp;             // per welded vertex: its λ after a ramp ring (then applied)
-  Array<uint8_t> lowered;        // per welded vertex: a mark of the ramp's (then cleared)
+        test_list(CallbackAllocator<uint32_t>(a)),
+        boxes(a),
+        reach_boxes(a),
+        node_boxes(CallbackAllocator<float>(a)),
+        node_flags(CallbackAllocator<uint8_t>(a)),
+        leaf_flags(CallbackAllocator<uint32_t>(a)) {}
+  Array<float> factor;             // λ per welded vertex
+  Array<glm::vec3> positions;      // x per welded vertex
+  Array<uint8_t> moved;            // per welded vertex: x differs from L
+  Array<uint8_t> flagged;          // per welded vertex: a corner of an added pair this round
+  Array<uint8_t> changed;          // per welded vertex: its λ changed this round
+  Array<uint32_t> flagged_list;    // the vertices flagged this round
+  Array<float> ramp;               // per welded vertex: its λ after a ramp ring (then applied)
+  Array<uint8_t> lowered;          // per welded vertex: a mark of the ramp's (then cleared)
   Array<uint32_t> corrected_list;  // the vertices whose λ the intersection guard lowered from 1
   Array<uint32_t> lowered_list;    // the vertices whose λ the ramp lowered
-  Array<uint8_t> tested;         // per triangle: in this round's list
-  Array<uint32_t> test_list;     // the triangles this round tests
-  SlotBoxes boxes;               // per triangle (by hierarchy slot): its box at x
-  SlotBoxes reach_boxes;         // per triangle (by slot): its box over the later rounds (x and L)
-  Array<float> node_boxes;       // ContactMesh::hierarchy refitted to boxes, then reach_boxes
-  Array<uint8_t> node_flags;     // per node: it holds a triangle of the first round
-  Array<uint32_t> leaf_flags;    // per leaf node: its lanes holding one
-  bool reach_ready = false;      // reach_boxes hold every position to come this evaluation
-  uint32_t rounds = 0;           // of the last evaluation
-  uint32_t corrected = 0;        // welded vertices with λ < 1 after the last evaluation
-  float volume_share = 1.0f;     // μ of the last evaluation
+  Array<uint8_t> tested;           // per triangle: in this round's list
+  Array<uint32_t> test_list;       // the triangles this round tests
+  SlotBoxes boxes;                 // per triangle (by hierarchy slot): its box at x
+  SlotBoxes reach_boxes;           // per triangle (by slot): its box over the later rounds (x and L)
+  Array<float> node_boxes;         // ContactMesh::hierarchy refitted to boxes, then reach_boxes
+  Array<uint8_t> node_flags;       // per node: it holds a triangle of the first round
+  Array<uint32_t> leaf_flags;      // per leaf node: its lanes holding one
+  bool reach_ready = false;        // reach_boxes hold every position to come this evaluation
+  uint32_t rounds = 0;             // of the last evaluation
+  uint32_t corrected = 0;          // welded vertices with λ < 1 after the last evaluation
+  float volume_share = 1.0f;       // μ of the last evaluation
 };
 
 // Throws std::bad_alloc.

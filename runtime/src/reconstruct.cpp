@@ -34,8 +34,7 @@ inline glm::vec3 rest_residual(const Deformable& d, uint32_t v) {
 // keeps `fallback`'s, so N stays unit and finite.
 void paper_normals(const Deformable& d, const glm::vec3* positions, const glm::vec3* rest_offset,
                    const glm::vec3* fallback, glm::vec3* out) {
-  dss::vertex_normals(positions, d.control_vertex_count, d.control_indices.data(), d.control_indices.size() / 3,
-                      out);
+  dss::vertex_normals(positions, d.control_vertex_count, d.control_indices.data(), d.control_indices.size() / 3, out);
   for (uint32_t v = 0; v < d.control_vertex_count; ++v) {
     const bool vanished = out[v].x == 0.0f && out[v].y == 0.0f && out[v].z == 0.0f;
     out[v] = vanished ? fallback[v] : normalize_or(out[v] + rest_offset[v], fallback[v]);
@@ -65,7 +64,8 @@ void reconstruct_predicted(const Deformable& d, const glm::vec3* rest_offset, co
   paper_normals(d, predicted, rest_offset, d.control_normals.data(), normals);
   for (uint32_t v = 0; v < d.control_vertex_count; ++v) {
     const bool unmoved = skeletal[v] == d.skeletal_positions[v] && normals[v] == d.control_normals[v];
-    control_out[v] = unmoved ? d.control_positions[v] : skeletal[v] + d.medial_radius[v] * normals[v] + rest_residual(d, v);
+    control_out[v] =
+        unmoved ? d.control_positions[v] : skeletal[v] + d.medial_radius[v] * normals[v] + rest_residual(d, v);
   }
 }
 
@@ -106,7 +106,7 @@ void reconstruct_homotopy(const Deformable& d, const glm::vec3* rest_offset, con
     const float t = float(j) * inverse_steps;  // j/L of eq. (2)
     for (uint32_t v = 0; v < count; ++v) {
       const glm::vec3 skeletal_j = start_skeletal[v] + t * (skeletal[v] - start_skeletal[v]);  // eq. (2)
-      control_out[v] = skeletal_j + radius[v] * previous_normals[v] + rest_residual(d, v);  // eq. (3)
+      control_out[v] = skeletal_j + radius[v] * previous_normals[v] + rest_residual(d, v);     // eq. (3)
     }
     if (j < steps) {
       paper_normals(d, control_out, rest_offset, previous_normals, next_normals);  // N_j from M_j

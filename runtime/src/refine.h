@@ -67,8 +67,8 @@ void normalise_vectors(glm::vec3* vectors, size_t count, uint8_t* usable = nullp
 // point on the refined mesh given by `refined` positions and their `normals`: dss_frame.h
 // exactly, fallbacks included. (displace.cpp evaluates the same formula block-wise and falls
 // back to this for the vertices that need a fallback.) Needs Deformable::binding_corners.
-inline dss::SurfaceFrame bound_frame(const Deformable& deformable, const glm::vec3* refined,
-                                     const glm::vec3* normals, uint32_t vertex) {
+inline dss::SurfaceFrame bound_frame(const Deformable& deformable, const glm::vec3* refined, const glm::vec3* normals,
+                                     uint32_t vertex) {
   const uint32_t* corner = deformable.binding_corners.data() + 3 * size_t{vertex};
   const glm::vec2 b = deformable.binding_barycentric[vertex];
   return dss::surface_frame(refined[corner[0]], refined[corner[1]], refined[corner[2]], normals[corner[0]],

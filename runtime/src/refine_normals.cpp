@@ -114,10 +114,10 @@ void medial_normal_sums(const glm::vec3* positions, const glm::vec3* skeletal, s
     const __m128 bz = add(mul(az, inverse_weight), mul(mz, inverse_medial));
     const __m128 bisector_length = _mm_sqrt_ps(dot(bx, by, bz, bx, by, bz));
     const __m128 scale = _mm_div_ps(weight, bisector_length);
-    const __m128 keep = _mm_and_ps(
-        _mm_and_ps(_mm_and_ps(_mm_cmpgt_ps(medial_length, tiny), _mm_cmpgt_ps(weight, tiny)),
-                   _mm_and_ps(_mm_cmple_ps(medial_length, largest), _mm_cmple_ps(weight, largest))),
-        _mm_cmpgt_ps(bisector_length, tiny));
+    const __m128 keep =
+        _mm_and_ps(_mm_and_ps(_mm_and_ps(_mm_cmpgt_ps(medial_length, tiny), _mm_cmpgt_ps(weight, tiny)),
+                              _mm_and_ps(_mm_cmple_ps(medial_length, largest), _mm_cmple_ps(weight, largest))),
+                   _mm_cmpgt_ps(bisector_length, tiny));
     __m128 rx = select(keep, mul(bx, scale), ax), ry = select(keep, mul(by, scale), ay),
            rz = select(keep, mul(bz, scale), az), rw = _mm_setzero_ps();
     _MM_TRANSPOSE4_PS(rx, ry, rz, rw);

@@ -17,7 +17,7 @@
 
 namespace skelform::skin {
 
-constexpr float kRigidShare = 0.001f;    // 1 − 0.999: a single-influence vertex
+constexpr float kRigidShare = 0.001f;     // 1 − 0.999: a single-influence vertex
 constexpr float kFullBlendShare = 0.05f;  // another joint carries 5 %
 
 // `count` (joint, weight) slots of one vertex; weights need not be normalised (zero and

@@ -8,7 +8,7 @@
 #include "memory.h"
 
 #if defined(__SSE2__)
-#include <emmintrin.h>
+#  include <emmintrin.h>
 #endif
 
 #include <glm/common.hpp>
@@ -32,8 +32,10 @@ constexpr uint32_t kMaxHierarchyDepth = 64;
 
 struct TriangleHierarchy {
   explicit TriangleHierarchy(const AllocatorRef& a)
-      : nodes(CallbackAllocator<HierarchyNode>(a)), order(CallbackAllocator<uint32_t>(a)),
-        slot(CallbackAllocator<uint32_t>(a)), corners(CallbackAllocator<uint32_t>(a)) {}
+      : nodes(CallbackAllocator<HierarchyNode>(a)),
+        order(CallbackAllocator<uint32_t>(a)),
+        slot(CallbackAllocator<uint32_t>(a)),
+        corners(CallbackAllocator<uint32_t>(a)) {}
   Array<HierarchyNode> nodes;
   Array<uint32_t> order;  // triangle indices, leaf by leaf: position i is "slot" i
   Array<uint32_t> slot;   // per triangle: its slot (order's inverse)
@@ -83,7 +85,8 @@ inline TriangleHierarchy build_triangle_hierarchy(const glm::vec3* positions, co
   for (uint32_t t = 0; t < triangle_count; ++t) {
     h.order[t] = t;
     centroid[t] = (positions[triangles[3 * size_t(t)]] + positions[triangles[3 * size_t(t) + 1]] +
-                   positions[triangles[3 * size_t(t) + 2]]) / 3.0f;
+                   positions[triangles[3 * size_t(t) + 2]]) /
+                  3.0f;
   }
   h.nodes.reserve(2 * size_t(triangle_count));
   h.nodes.push_back({0, triangle_count});
@@ -107,7 +110,8 @@ inline TriangleHierarchy build_triangle_hierarchy(const glm::vec3* positions, co
     const uint32_t half = count / 2;
     std::nth_element(h.order.begin() + first, h.order.begin() + first + half, h.order.begin() + first + count,
                      [&](uint32_t a, uint32_t b) {
-                       return centroid[a][axis] < centroid[b][axis] || (centroid[a][axis] == centroid[b][axis] && a < b);
+                       return centroid[a][axis] < centroid[b][axis] ||
+                              (centroid[a][axis] == centroid[b][axis] && a < b);
                      });
     const uint32_t left = uint32_t(h.nodes.size());
     h.nodes.push_back({first, half});

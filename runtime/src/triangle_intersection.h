@@ -32,8 +32,8 @@ inline bool separated_along(const glm::dvec3& axis, const glm::dvec3* a, const g
 
 // True when the closed triangles (a0, a1, a2) and (b0, b1, b2) share at least one point
 // (touching counts).
-inline bool triangles_intersect(const glm::dvec3& a0, const glm::dvec3& a1, const glm::dvec3& a2,
-                                const glm::dvec3& b0, const glm::dvec3& b1, const glm::dvec3& b2) {
+inline bool triangles_intersect(const glm::dvec3& a0, const glm::dvec3& a1, const glm::dvec3& a2, const glm::dvec3& b0,
+                                const glm::dvec3& b1, const glm::dvec3& b2) {
   const glm::dvec3 origin = a0;
   const glm::dvec3 a[3] = {glm::dvec3(0.0), a1 - origin, a2 - origin};
   const glm::dvec3 b[3] = {b0 - origin, b1 - origin, b2 - origin};

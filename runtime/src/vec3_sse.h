@@ -9,11 +9,11 @@
 
 #if defined(__SSE2__)
 
-#include <glm/vec3.hpp>
+#  include <glm/vec3.hpp>
 
-#include <emmintrin.h>
+#  include <emmintrin.h>
 
-#include <cstddef>
+#  include <cstddef>
 
 namespace skelform::runtime::sse {
 

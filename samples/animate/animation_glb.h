@@ -23,9 +23,9 @@ namespace skelform::samples {
 
 // Frames of one glTF primitive of a deformable. Vectors of floats hold x, y, z per vertex.
 struct PrimitiveFrames {
-  std::vector<uint32_t> triangles;     // the primitive's triangles, 3 indices each
-  std::vector<float> rest_positions;   // the morph base: POSITION as stored in the input
-  std::vector<float> rest_normals;     // the morph base normals (the runtime's rest normals)
+  std::vector<uint32_t> triangles;    // the primitive's triangles, 3 indices each
+  std::vector<float> rest_positions;  // the morph base: POSITION as stored in the input
+  std::vector<float> rest_normals;    // the morph base normals (the runtime's rest normals)
   std::vector<std::vector<float>> skelform_positions, skelform_normals;  // per frame, absolute
   std::vector<std::vector<float>> lbs_positions, lbs_normals;            // per frame, absolute
 };
@@ -33,7 +33,7 @@ struct PrimitiveFrames {
 // Frames of one deformable.
 struct DeformableFrames {
   uint32_t deformable = 0;
-  std::string mesh_name;                // glTF mesh name (or "mesh N")
+  std::string mesh_name;  // glTF mesh name (or "mesh N")
   std::vector<PrimitiveFrames> primitives;
   std::vector<uint32_t> skeletal_triangles;            // control triangles (the skeletal mesh's)
   std::vector<float> skeletal_rest;                    // S at rest: the morph base
@@ -48,9 +48,9 @@ struct AnimationRange {
 };
 
 struct AnimationFile {
-  std::string source;          // input file name (no directory), for asset.extras
-  double fps = 30;             // the requested sampling rate
-  float offset = 0;            // x translation of the lbs nodes
+  std::string source;  // input file name (no directory), for asset.extras
+  double fps = 30;     // the requested sampling rate
+  float offset = 0;    // x translation of the lbs nodes
   std::vector<AnimationRange> animations;
   std::vector<DeformableFrames> deformables;
 };

@@ -42,22 +42,22 @@
 namespace {
 
 using skelform::samples::AnimationFile;
-using skelform::samples::AssetHandle;
-using skelform::samples::LoadedAsset;
 using skelform::samples::AnimationRange;
+using skelform::samples::AssetHandle;
 using skelform::samples::DeformableFrames;
-using skelform::samples::GltfAnimation;
-using skelform::samples::PrimitiveFrames;
 using skelform::samples::exit_code_of;
 using skelform::samples::fail;
+using skelform::samples::GltfAnimation;
 using skelform::samples::kExitInternal;
 using skelform::samples::kExitInvalidInput;
 using skelform::samples::kExitIo;
 using skelform::samples::kExitOk;
 using skelform::samples::kExitUsage;
+using skelform::samples::LoadedAsset;
 using skelform::samples::lowercase_extension;
 using skelform::samples::parse_integer;
 using skelform::samples::parse_positive;
+using skelform::samples::PrimitiveFrames;
 using Clock = std::chrono::steady_clock;
 
 const char* const kUsage =
@@ -104,13 +104,20 @@ Arguments parse_arguments(int argc, char** argv) {
       if (i + 1 >= argc) fail(kExitUsage, arg + " needs a value");
       return argv[++i];
     };
-    if (arg == "-o" || arg == "--output") args.output = value();
-    else if (arg == "--fps") args.fps = parse_positive(arg, value(), 1000.0);
-    else if (arg == "--max-frames") args.max_frames = parse_integer(arg, value(), 1, 100000);
-    else if (arg == "-q" || arg == "--quiet") args.quiet = true;
-    else if (arg == "--contacts") args.contacts = true;
-    else if (arg.size() > 1 && arg[0] == '-') fail(kExitUsage, "unknown option " + arg);
-    else positional.push_back(arg);
+    if (arg == "-o" || arg == "--output")
+      args.output = value();
+    else if (arg == "--fps")
+      args.fps = parse_positive(arg, value(), 1000.0);
+    else if (arg == "--max-frames")
+      args.max_frames = parse_integer(arg, value(), 1, 100000);
+    else if (arg == "-q" || arg == "--quiet")
+      args.quiet = true;
+    else if (arg == "--contacts")
+      args.contacts = true;
+    else if (arg.size() > 1 && arg[0] == '-')
+      fail(kExitUsage, "unknown option " + arg);
+    else
+      positional.push_back(arg);
   }
   if (positional.size() != 1) fail(kExitUsage, "expected one input file, got " + std::to_string(positional.size()));
   args.input = positional[0];
@@ -216,7 +223,8 @@ int run(const Arguments& args) {
         progress("  mesh " + std::to_string(deformable + 1) + "/" + std::to_string(count) + ": " + stage);
       },
       [&] { progress("baking " + args.input + " (it has no " + kExtensionName + " extension)"); });
-  for (const std::string& warning : loaded.warnings) std::fprintf(stderr, "skelform-animate: warning: %s\n", warning.c_str());
+  for (const std::string& warning : loaded.warnings)
+    std::fprintf(stderr, "skelform-animate: warning: %s\n", warning.c_str());
   const nlohmann::json document = skelform::samples::gltf_document(loaded.bytes, args.input);
   const GltfAnimation gltf = GltfAnimation::load_file(args.input);
   const AssetHandle& asset = loaded.asset;
@@ -224,7 +232,8 @@ int run(const Arguments& args) {
   const uint32_t deformable_count = sf_asset_deformable_count(asset.asset);
   if (deformable_count == 0) fail(kExitInvalidInput, args.input + " has no skinned mesh to animate");
 
-  const nlohmann::json* meshes = document.contains("meshes") && document["meshes"].is_array() ? &document["meshes"] : nullptr;
+  const nlohmann::json* meshes =
+      document.contains("meshes") && document["meshes"].is_array() ? &document["meshes"] : nullptr;
   std::vector<Character> characters(deformable_count);
   for (uint32_t d = 0; d < deformable_count; ++d) {
     Character& c = characters[d];
@@ -233,8 +242,8 @@ int run(const Arguments& args) {
     for (Instance* instance : {&c.skelform, &c.lbs}) {
       const sf_result created = sf_instance_create(asset.asset, d, &instance->handle);
       if (created != SF_OK)
-        fail(exit_code_of(created), "cannot create an instance of deformable " + std::to_string(d) + " (" +
-                                        sf_result_string(created) + ")");
+        fail(exit_code_of(created),
+             "cannot create an instance of deformable " + std::to_string(d) + " (" + sf_result_string(created) + ")");
     }
     if (args.contacts) c.skelform.check(sf_instance_set_contacts(c.skelform.handle, 1), "sf_instance_set_contacts");
     c.frames.deformable = d;
@@ -252,7 +261,8 @@ int run(const Arguments& args) {
     // matrices), the skeletal mesh S at rest.
     for (uint32_t p = 0; p < c.info.primitive_count; ++p) {
       sf_primitive_info primitive{};
-      if (sf_asset_primitive_info(asset.asset, d, p, &primitive) != SF_OK) fail(kExitInternal, "cannot describe a primitive");
+      if (sf_asset_primitive_info(asset.asset, d, p, &primitive) != SF_OK)
+        fail(kExitInternal, "cannot describe a primitive");
       c.primitives.push_back(primitive);
       PrimitiveFrames frames;
       frames.rest_positions = gltf.primitive_positions(mesh, static_cast<size_t>(primitive.primitive));
@@ -275,8 +285,8 @@ int run(const Arguments& args) {
     c.skelform.check(sf_instance_evaluate(c.skelform.handle, &rest), "sf_instance_evaluate");
     c.frames.skeletal_rest = skeletal_positions(c);
     c.frames.skeletal_triangles.assign(3 * size_t{c.info.control_triangle_count}, 0);
-    if (sf_asset_control_triangles(asset.asset, d, c.frames.skeletal_triangles.data(), c.frames.skeletal_triangles.size()) !=
-        SF_OK)
+    if (sf_asset_control_triangles(asset.asset, d, c.frames.skeletal_triangles.data(),
+                                   c.frames.skeletal_triangles.size()) != SF_OK)
       fail(kExitInternal, "cannot read the control triangles");
     sf_eval_options lbs_rest = rest;
     lbs_rest.method = SF_METHOD_LBS;
@@ -322,7 +332,8 @@ int run(const Arguments& args) {
           const std::vector<float> matrices =
               source.animation == skelform::samples::kStaticPose
                   ? identity_matrices(c.info.joint_count)
-                  : gltf.joint_matrices(static_cast<size_t>(c.info.skin), source.animation, source.start + source.times[k]);
+                  : gltf.joint_matrices(static_cast<size_t>(c.info.skin), source.animation,
+                                        source.start + source.times[k]);
           c.skelform.check(sf_instance_set_joint_matrices(c.skelform.handle, matrices.data(), c.info.joint_count, 0),
                            "sf_instance_set_joint_matrices");
           c.lbs.check(sf_instance_set_joint_matrices(c.lbs.handle, matrices.data(), c.info.joint_count, 0),
@@ -371,11 +382,12 @@ int run(const Arguments& args) {
   if (!args.quiet) {
     const double seconds = std::chrono::duration<double>(Clock::now() - start).count();
     std::string bake_note = bake_seconds > 0 ? ", baked in " + std::to_string(bake_seconds).substr(0, 4) + " s" : "";
-    std::printf("skelform-animate: %s -> %s: %u deformable(s), %zu animation(s), %u frames, %.1f MB%s; per frame "
-                "skelform %.2f ms, LBS %.2f ms; %.1f s\n",
-                args.input.c_str(), args.output.c_str(), deformable_count, file.animations.size(), next_target,
-                double(out.size()) / 1e6, bake_note.c_str(), evaluations ? skelform_ms / double(evaluations) : 0.0,
-                evaluations ? lbs_ms / double(evaluations) : 0.0, seconds);
+    std::printf(
+        "skelform-animate: %s -> %s: %u deformable(s), %zu animation(s), %u frames, %.1f MB%s; per frame "
+        "skelform %.2f ms, LBS %.2f ms; %.1f s\n",
+        args.input.c_str(), args.output.c_str(), deformable_count, file.animations.size(), next_target,
+        double(out.size()) / 1e6, bake_note.c_str(), evaluations ? skelform_ms / double(evaluations) : 0.0,
+        evaluations ? lbs_ms / double(evaluations) : 0.0, seconds);
   }
   return kExitOk;
 }

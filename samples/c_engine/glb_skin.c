@@ -131,17 +131,17 @@ void glb_skin_free(glb_skin* skin, const sf_allocator* allocator) {
   memset(skin, 0, sizeof *skin);
 }
 
-#define FAIL(...)                                   \
-  do {                                              \
-    snprintf(error, error_capacity, __VA_ARGS__);   \
-    goto fail;                                      \
+#define FAIL(...)                                 \
+  do {                                            \
+    snprintf(error, error_capacity, __VA_ARGS__); \
+    goto fail;                                    \
   } while (0)
 
 int glb_skin_read(const unsigned char* data, size_t size, int32_t skin_index, const sf_allocator* allocator,
                   glb_skin* out, char* error, size_t error_capacity) {
   char* json = NULL;
   unsigned char* decoded = NULL; /* a buffer given as a base64 data URI (.gltf input kept it) */
-  long* joint_node = NULL; /* node of each joint; reused as each joint's depth for `order` */
+  long* joint_node = NULL;       /* node of each joint; reused as each joint's depth for `order` */
   const unsigned char* bin = NULL;
   size_t bin_size = 0, json_size;
   const char *skin, *joints, *nodes, *ibm;
@@ -200,7 +200,8 @@ int glb_skin_read(const unsigned char* data, size_t size, int32_t skin_index, co
     for (i = 0; i < n * 16; ++i) out->inverse_bind[i] = i % 16 % 5 == 0 ? 1.0f : 0.0f;
   } else {
     const char* accessor = json_element(json_member(json, "accessors"), json_index(ibm, -1));
-    const char* view = json_element(json_member(json, "bufferViews"), json_index(json_member(accessor, "bufferView"), -1));
+    const char* view =
+        json_element(json_member(json, "bufferViews"), json_index(json_member(accessor, "bufferView"), -1));
     const long accessor_offset = json_index(json_member(accessor, "byteOffset"), 0);
     const long view_offset = json_index(json_member(view, "byteOffset"), 0);
     const long view_length = json_index(json_member(view, "byteLength"), -1);
@@ -211,8 +212,7 @@ int glb_skin_read(const unsigned char* data, size_t size, int32_t skin_index, co
     const unsigned char* bytes = bin;
     size_t byte_count = bin_size;
     if (!accessor || json_index(json_member(accessor, "componentType"), -1) != 5126 ||
-        !json_string_is(json_member(accessor, "type"), "MAT4") ||
-        json_index(json_member(accessor, "count"), -1) < n)
+        !json_string_is(json_member(accessor, "type"), "MAT4") || json_index(json_member(accessor, "count"), -1) < n)
       FAIL("inverseBindMatrices: not %ld float MAT4", n);
     if (uri) { /* not the BIN chunk: only a base64 data URI is read, not external files */
       const char* base64 = strstr(uri, ";base64,");
@@ -226,13 +226,12 @@ int glb_skin_read(const unsigned char* data, size_t size, int32_t skin_index, co
     } else if (buffer_index != 0) {
       bytes = NULL;
     }
-    if (!view || !bytes || accessor_offset < 0 || view_offset < 0 ||
-        view_length < 0 || stride < 64 || stride > view_length || (size_t)view_offset + (size_t)view_length > byte_count ||
+    if (!view || !bytes || accessor_offset < 0 || view_offset < 0 || view_length < 0 || stride < 64 ||
+        stride > view_length || (size_t)view_offset + (size_t)view_length > byte_count ||
         (size_t)accessor_offset + (size_t)(n - 1) * (size_t)stride + 64 > (size_t)view_length)
       FAIL("inverseBindMatrices: not inside buffer %ld", buffer_index);
     /* glTF is little-endian, like every platform this example targets. */
-    for (i = 0; i < n; ++i)
-      memcpy(out->inverse_bind + 16 * i, bytes + view_offset + accessor_offset + i * stride, 64);
+    for (i = 0; i < n; ++i) memcpy(out->inverse_bind + 16 * i, bytes + view_offset + accessor_offset + i * stride, 64);
   }
   allocator->free(allocator->user, decoded);
   allocator->free(allocator->user, joint_node);

@@ -18,10 +18,10 @@
 #include <stdint.h>
 
 typedef struct glb_skin {
-  uint32_t joint_count;  /* joints of the skin, in its `joints` order (skelform's order) */
-  int32_t* parent;       /* per joint: index of its parent joint in the skin, or -1 */
-  uint32_t* order;       /* joint indices, every parent before its children */
-  float* inverse_bind;   /* joint_count column-major 4x4 matrices (identity when absent) */
+  uint32_t joint_count; /* joints of the skin, in its `joints` order (skelform's order) */
+  int32_t* parent;      /* per joint: index of its parent joint in the skin, or -1 */
+  uint32_t* order;      /* joint indices, every parent before its children */
+  float* inverse_bind;  /* joint_count column-major 4x4 matrices (identity when absent) */
 } glb_skin;
 
 /* Reads skin `skin_index` of the GLB in `data`. Returns 1 on success; on failure returns 0,

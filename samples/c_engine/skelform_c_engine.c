@@ -87,15 +87,24 @@ static void engine_free(void* user, void* ptr) {
 /* No `default:`: a code appended to a later skelform.h becomes a -Wswitch error here. */
 static const char* advice(sf_result result) {
   switch (result) {
-    case SF_OK: return "success";
-    case SF_ERROR_INVALID_ARGUMENT: return "a caller bug: fix the call; the object stays usable";
-    case SF_ERROR_INVALID_DATA: return "corrupt asset: re-bake it with skelform-bake";
-    case SF_ERROR_VERSION_MISMATCH: return "baked for a newer runtime: update skelform or re-bake";
-    case SF_ERROR_OUT_OF_MEMORY: return "the allocator refused: free memory or raise the budget, retry";
-    case SF_ERROR_IO: return "the file is unreadable: check the path";
-    case SF_ERROR_UNSUPPORTED: return "valid but not handled: take the other path (e.g. no tangents)";
-    case SF_ERROR_NOT_READY: return "out of order: evaluate before writing";
-    case SF_RESULT_FORCE_U32: break;
+    case SF_OK:
+      return "success";
+    case SF_ERROR_INVALID_ARGUMENT:
+      return "a caller bug: fix the call; the object stays usable";
+    case SF_ERROR_INVALID_DATA:
+      return "corrupt asset: re-bake it with skelform-bake";
+    case SF_ERROR_VERSION_MISMATCH:
+      return "baked for a newer runtime: update skelform or re-bake";
+    case SF_ERROR_OUT_OF_MEMORY:
+      return "the allocator refused: free memory or raise the budget, retry";
+    case SF_ERROR_IO:
+      return "the file is unreadable: check the path";
+    case SF_ERROR_UNSUPPORTED:
+      return "valid but not handled: take the other path (e.g. no tangents)";
+    case SF_ERROR_NOT_READY:
+      return "out of order: evaluate before writing";
+    case SF_RESULT_FORCE_U32:
+      break;
   }
   return "unknown result code";
 }
@@ -162,8 +171,10 @@ static int compute_bind_locals(const glb_skin* skin, float* bind_local) {
   float bind_world[16];
   for (j = 0; j < skin->joint_count; ++j) {
     if (!mat4_affine_inverse(bind_world, skin->inverse_bind + 16 * j)) return 0;
-    if (skin->parent[j] < 0) memcpy(bind_local + 16 * j, bind_world, sizeof bind_world);
-    else mat4_mul(bind_local + 16 * j, skin->inverse_bind + 16 * skin->parent[j], bind_world);
+    if (skin->parent[j] < 0)
+      memcpy(bind_local + 16 * j, bind_world, sizeof bind_world);
+    else
+      mat4_mul(bind_local + 16 * j, skin->inverse_bind + 16 * skin->parent[j], bind_world);
   }
   return 1;
 }
@@ -198,11 +209,11 @@ typedef struct engine_vertex {
 
 typedef struct character {
   sf_instance* instance;
-  float phase, speed;       /* animation phase (cycles) and playback speed (cycles per second) */
-  float* joint_world;       /* joint_count 4x4 */
-  float* skinning;          /* joint_count 4x4: what sf_instance_set_joint_matrices takes */
-  engine_vertex* vertices;  /* vertex buffer: the deformable's primitives one after the other */
-  double evaluate_seconds;  /* CPU time spent in sf_instance_evaluate */
+  float phase, speed;      /* animation phase (cycles) and playback speed (cycles per second) */
+  float* joint_world;      /* joint_count 4x4 */
+  float* skinning;         /* joint_count 4x4: what sf_instance_set_joint_matrices takes */
+  engine_vertex* vertices; /* vertex buffer: the deformable's primitives one after the other */
+  double evaluate_seconds; /* CPU time spent in sf_instance_evaluate */
 } character;
 
 static const float UV_SENTINEL = 0.625f;
@@ -312,14 +323,15 @@ static int show_error_paths(const char* path, const unsigned char* file, size_t 
 
   out.positions = &ch->vertices[0].position[0], out.position_stride = sizeof(engine_vertex);
   out.vertex_capacity = primitives[0].vertex_count;
-  failures += !expect(sf_instance_write(ch->instance, 0, &out), SF_ERROR_NOT_READY, "sf_instance_write(before evaluate)",
-                      sf_instance_last_error(ch->instance));
-  failures += !expect(sf_instance_set_joint_matrices(ch->instance, ch->skinning, joint_count + 1, 0),
-                      SF_ERROR_INVALID_ARGUMENT, "sf_instance_set_joint_matrices(count + 1)",
-                      sf_instance_last_error(ch->instance));
+  failures += !expect(sf_instance_write(ch->instance, 0, &out), SF_ERROR_NOT_READY,
+                      "sf_instance_write(before evaluate)", sf_instance_last_error(ch->instance));
+  failures +=
+      !expect(sf_instance_set_joint_matrices(ch->instance, ch->skinning, joint_count + 1, 0), SF_ERROR_INVALID_ARGUMENT,
+              "sf_instance_set_joint_matrices(count + 1)", sf_instance_last_error(ch->instance));
   ch->skinning[5] = NAN; /* the skinning matrices hold the bind pose (identities) here */
-  failures += !expect(sf_instance_set_joint_matrices(ch->instance, ch->skinning, joint_count, 0),
-                      SF_ERROR_INVALID_ARGUMENT, "sf_instance_set_joint_matrices(NaN)", sf_instance_last_error(ch->instance));
+  failures +=
+      !expect(sf_instance_set_joint_matrices(ch->instance, ch->skinning, joint_count, 0), SF_ERROR_INVALID_ARGUMENT,
+              "sf_instance_set_joint_matrices(NaN)", sf_instance_last_error(ch->instance));
   ch->skinning[5] = 1.0f;
 
   /* Tangents exist only where the glTF authored them: asking for more is refused. */
@@ -379,10 +391,11 @@ int main(int argc, char** argv) {
   printf("%s: %u deformable(s)\n", path, (unsigned)sf_asset_deformable_count(asset));
   for (d = 0; d < sf_asset_deformable_count(asset); ++d) {
     if (!check(sf_asset_deformable_info(asset, d, &info), "sf_asset_deformable_info", NULL, NULL)) goto done;
-    printf("  deformable %u: mesh %d, skin %d, %u joints, %u vertices in %u primitive(s), control mesh %u vertices, "
-           "Loop level %u\n", (unsigned)d, (int)info.mesh, (int)info.skin, (unsigned)info.joint_count,
-           (unsigned)info.vertex_count, (unsigned)info.primitive_count, (unsigned)info.control_vertex_count,
-           (unsigned)info.subdivision_level);
+    printf(
+        "  deformable %u: mesh %d, skin %d, %u joints, %u vertices in %u primitive(s), control mesh %u vertices, "
+        "Loop level %u\n",
+        (unsigned)d, (int)info.mesh, (int)info.skin, (unsigned)info.joint_count, (unsigned)info.vertex_count,
+        (unsigned)info.primitive_count, (unsigned)info.control_vertex_count, (unsigned)info.subdivision_level);
   }
   if (!check(sf_asset_deformable_info(asset, 0, &info), "sf_asset_deformable_info", NULL, NULL)) goto done;
   if (info.skin < 0 || info.primitive_count == 0) {
@@ -462,9 +475,10 @@ int main(int argc, char** argv) {
       sf_eval_options options;
       float box[6];
       clock_t start;
-      memset(&options, 0, sizeof options); /* zero = defaults: skelform method, limb arcs, fairing */
+      memset(&options, 0, sizeof options);               /* zero = defaults: skelform method, limb arcs, fairing */
       if (frame == 0) options.flags = SF_EVAL_FROM_REST; /* no previous evaluation to continue from */
-      compute_joint_matrices(&skin, bind_local, BEND_AMPLITUDE, seconds, ch->phase, ch->speed, ch->joint_world, ch->skinning);
+      compute_joint_matrices(&skin, bind_local, BEND_AMPLITUDE, seconds, ch->phase, ch->speed, ch->joint_world,
+                             ch->skinning);
       if (!check(sf_instance_set_joint_matrices(ch->instance, ch->skinning, info.joint_count, 0),
                  "sf_instance_set_joint_matrices", ch->instance, NULL))
         goto done;
@@ -480,8 +494,8 @@ int main(int argc, char** argv) {
   for (c = 0; c < CHARACTER_COUNT; ++c)
     printf("character %d: phase %.2f, speed %.2f, %.3f ms CPU per evaluation (%u vertices)\n", c, characters[c].phase,
            characters[c].speed, 1e3 * characters[c].evaluate_seconds / (double)frames, (unsigned)info.vertex_count);
-  printf("output check: %lu frame-vertices non-finite, non-unit normal or uv touched: %s\n", (unsigned long)bad_vertices,
-         bad_vertices == 0 ? "all positions finite" : "FAILED");
+  printf("output check: %lu frame-vertices non-finite, non-unit normal or uv touched: %s\n",
+         (unsigned long)bad_vertices, bad_vertices == 0 ? "all positions finite" : "FAILED");
   failures += bad_vertices != 0;
   finished = 1;
 

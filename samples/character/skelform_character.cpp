@@ -37,18 +37,22 @@ int main(int argc, char** argv) {
   for (int i = 1; i < argc; ++i) {
     const std::string arg = argv[i];
     const bool has_value = i + 1 < argc;
-    if ((arg == "-o" || arg == "--output") && has_value) output = argv[++i];
-    else if (arg == "--height" && has_value) options.height = parse_positive("--height", argv[++i]);
-    else if (arg == "--resolution" && has_value) options.resolution = parse_positive("--resolution", argv[++i]);
+    if ((arg == "-o" || arg == "--output") && has_value)
+      output = argv[++i];
+    else if (arg == "--height" && has_value)
+      options.height = parse_positive("--height", argv[++i]);
+    else if (arg == "--resolution" && has_value)
+      options.resolution = parse_positive("--resolution", argv[++i]);
     else if (arg == "-h" || arg == "--help") {
-      std::puts("usage: skelform-character -o OUT.glb|OUT.obj [--height H (1.8)] [--resolution R (0.02)]\n"
-                "\n"
-                "  .glb  the character rigged (19 joints, computed skin weights, normals) and animated\n"
-                "        in code: animations \"walk\" (1 s cycle) and \"bend\" (3 s, knees and elbows\n"
-                "        at 120 degrees, spine twist); standard skinned glTF 2.0\n"
-                "  .obj  the bare surface\n"
-                "\n"
-                "Exit codes: 0 success, 1 bad command line, 3 file could not be written.");
+      std::puts(
+          "usage: skelform-character -o OUT.glb|OUT.obj [--height H (1.8)] [--resolution R (0.02)]\n"
+          "\n"
+          "  .glb  the character rigged (19 joints, computed skin weights, normals) and animated\n"
+          "        in code: animations \"walk\" (1 s cycle) and \"bend\" (3 s, knees and elbows\n"
+          "        at 120 degrees, spine twist); standard skinned glTF 2.0\n"
+          "  .obj  the bare surface\n"
+          "\n"
+          "Exit codes: 0 success, 1 bad command line, 3 file could not be written.");
       return 0;
     } else {
       std::fprintf(stderr, "skelform-character: error: unexpected argument '%s' (see --help)\n", arg.c_str());

@@ -29,10 +29,12 @@ uint32_t read_u32(const std::string& bytes, size_t offset) {
 std::string read_file_bytes(const std::string& path) {
   std::error_code error;
   if (!std::filesystem::is_regular_file(path, error))
-    fail(kExitIo, "cannot read " + path + (std::filesystem::exists(path, error) ? ": not a regular file" : ": no such file"));
+    fail(kExitIo,
+         "cannot read " + path + (std::filesystem::exists(path, error) ? ": not a regular file" : ": no such file"));
   const uintmax_t size = std::filesystem::file_size(path, error);
   if (!error && size > kMaxFileBytes)
-    fail(kExitInvalidInput, path + ": larger than " + std::to_string(kMaxFileBytes >> 20) + " MiB, the most the sample tools read");
+    fail(kExitInvalidInput,
+         path + ": larger than " + std::to_string(kMaxFileBytes >> 20) + " MiB, the most the sample tools read");
   std::ifstream file(path, std::ios::binary);
   std::ostringstream contents;
   contents << file.rdbuf();
@@ -50,7 +52,8 @@ nlohmann::json gltf_document(const std::string& bytes, const std::string& name) 
     text = bytes.substr(20, length);
   }
   nlohmann::json document = nlohmann::json::parse(text, nullptr, false);
-  if (document.is_discarded() || !document.is_object()) fail(kExitInvalidInput, name + ": not a glTF file (no JSON object)");
+  if (document.is_discarded() || !document.is_object())
+    fail(kExitInvalidInput, name + ": not a glTF file (no JSON object)");
   return document;
 }
 
@@ -63,9 +66,12 @@ bool has_skelform_extension(const std::string& bytes, const std::string& name) {
 
 int exit_code_of(const bake::Error& error) {
   switch (error.kind()) {
-    case bake::ErrorKind::usage: return kExitUsage;
-    case bake::ErrorKind::io: return kExitIo;
-    default: return kExitInvalidInput;
+    case bake::ErrorKind::usage:
+      return kExitUsage;
+    case bake::ErrorKind::io:
+      return kExitIo;
+    default:
+      return kExitInvalidInput;
   }
 }
 

@@ -26,10 +26,10 @@ struct AssetHandle {
 
 struct LoadedAsset {
   AssetHandle asset;
-  std::string bytes;          // the file as read
-  bool baked_here = false;    // true when the file had no extension and was baked in memory
-  double bake_seconds = 0.0;  // time of that bake
-  bake::BakeResult bake;      // its reports (empty when the file was already baked)
+  std::string bytes;                  // the file as read
+  bool baked_here = false;            // true when the file had no extension and was baked in memory
+  double bake_seconds = 0.0;          // time of that bake
+  bake::BakeResult bake;              // its reports (empty when the file was already baked)
   std::vector<std::string> warnings;  // exporter defects the in-memory bake repaired (input.h)
 };
 

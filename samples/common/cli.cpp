@@ -15,12 +15,15 @@ void fail(int exit_code, const std::string& message) { throw Failure{exit_code, 
 
 int exit_code_of(sf_result result) {
   switch (result) {
-    case SF_ERROR_IO: return kExitIo;
+    case SF_ERROR_IO:
+      return kExitIo;
     case SF_ERROR_INVALID_ARGUMENT:
     case SF_ERROR_INVALID_DATA:
     case SF_ERROR_VERSION_MISMATCH:
-    case SF_ERROR_UNSUPPORTED: return kExitInvalidInput;
-    default: return kExitInternal;
+    case SF_ERROR_UNSUPPORTED:
+      return kExitInvalidInput;
+    default:
+      return kExitInternal;
   }
 }
 

@@ -78,7 +78,8 @@ class AccessorReader {
 
   // All elements of accessor `index` as doubles (count × components): `type` with a
   // component type among `component_types` (FLOAT, or normalized integers), values finite.
-  std::vector<double> read(int index, const std::string& what, int type, const std::vector<int>& component_types) const {
+  std::vector<double> read(int index, const std::string& what, int type,
+                           const std::vector<int>& component_types) const {
     try {
       return gltf::read_values(model_, index, type, component_types, name_ + ": " + what);
     } catch (const gltf::GltfError& e) {
@@ -163,7 +164,9 @@ void sample_channel(const Channel& channel, double time, double* out) {
   const double interval = times[i + 1] - times[i];
   const double s = (time - times[i]) / interval;
   switch (channel.interpolation) {
-    case Interpolation::step: std::copy(value(i), value(i) + k, out); return;
+    case Interpolation::step:
+      std::copy(value(i), value(i) + k, out);
+      return;
     case Interpolation::linear:
       if (channel.path == Path::rotation) {
         const double* a = value(i);
@@ -207,7 +210,8 @@ std::string too_large(const std::string& path) {
 // In chunks up to kMaxFileBytes: a stream without an end is refused once it passes the limit.
 std::vector<unsigned char> read_bounded_file(const std::string& path) {
   std::error_code error;
-  if (std::filesystem::is_regular_file(path, error) && std::filesystem::file_size(path, error) > kMaxFileBytes && !error)
+  if (std::filesystem::is_regular_file(path, error) && std::filesystem::file_size(path, error) > kMaxFileBytes &&
+      !error)
     throw GltfError(too_large(path));
   std::ifstream file(path, std::ios::binary);
   if (!file) throw GltfError(path + ": cannot open the file");
@@ -326,11 +330,16 @@ void GltfAnimation::Impl::validate_animations(const AccessorReader& reader) {
       const tinygltf::AnimationChannel& channel = source.channels[c];
       const std::string label = what + " channel " + std::to_string(c);
       Channel decoded;
-      if (channel.target_path == "translation") decoded.path = Path::translation;
-      else if (channel.target_path == "rotation") decoded.path = Path::rotation;
-      else if (channel.target_path == "scale") decoded.path = Path::scale;
-      else if (channel.target_path == "weights") decoded.path = Path::weights;
-      else reader.fail(label + " targets unknown path '" + channel.target_path + "'");
+      if (channel.target_path == "translation")
+        decoded.path = Path::translation;
+      else if (channel.target_path == "rotation")
+        decoded.path = Path::rotation;
+      else if (channel.target_path == "scale")
+        decoded.path = Path::scale;
+      else if (channel.target_path == "weights")
+        decoded.path = Path::weights;
+      else
+        reader.fail(label + " targets unknown path '" + channel.target_path + "'");
       if (channel.sampler < 0 || static_cast<size_t>(channel.sampler) >= source.samplers.size())
         reader.fail(label + " refers to sampler " + std::to_string(channel.sampler) + ", which does not exist");
       // A channel without a node is allowed (extensions may target other objects): ignored.
@@ -342,12 +351,16 @@ void GltfAnimation::Impl::validate_animations(const AccessorReader& reader) {
                     ", which has a matrix (glTF allows only TRS on animated nodes)");
       const tinygltf::AnimationSampler& sampler = source.samplers[static_cast<size_t>(channel.sampler)];
       const std::string sampler_label = what + " sampler " + std::to_string(channel.sampler);
-      if (sampler.interpolation == "LINEAR") decoded.interpolation = Interpolation::linear;
-      else if (sampler.interpolation == "STEP") decoded.interpolation = Interpolation::step;
-      else if (sampler.interpolation == "CUBICSPLINE") decoded.interpolation = Interpolation::cubic_spline;
-      else reader.fail(sampler_label + " has unknown interpolation '" + sampler.interpolation + "'");
-      decoded.times = reader.read(sampler.input, sampler_label + " input", TINYGLTF_TYPE_SCALAR,
-                                  {TINYGLTF_COMPONENT_TYPE_FLOAT});
+      if (sampler.interpolation == "LINEAR")
+        decoded.interpolation = Interpolation::linear;
+      else if (sampler.interpolation == "STEP")
+        decoded.interpolation = Interpolation::step;
+      else if (sampler.interpolation == "CUBICSPLINE")
+        decoded.interpolation = Interpolation::cubic_spline;
+      else
+        reader.fail(sampler_label + " has unknown interpolation '" + sampler.interpolation + "'");
+      decoded.times =
+          reader.read(sampler.input, sampler_label + " input", TINYGLTF_TYPE_SCALAR, {TINYGLTF_COMPONENT_TYPE_FLOAT});
       // glTF requires strictly increasing key times, but exporters write a repeated key (the
       // last one, typically): a jump at that instant, which sample_channel plays as such (it
       // interpolates only between keys of different times). Decreasing times are refused.
@@ -368,13 +381,13 @@ void GltfAnimation::Impl::validate_animations(const AccessorReader& reader) {
       }
       decoded.components = decoded.path == Path::rotation ? 4 : 3;
       if (decoded.path == Path::rotation) {
-        decoded.values = reader.read(sampler.output, sampler_label + " output", TINYGLTF_TYPE_VEC4,
-                                     {TINYGLTF_COMPONENT_TYPE_FLOAT, TINYGLTF_COMPONENT_TYPE_BYTE,
-                                      TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE, TINYGLTF_COMPONENT_TYPE_SHORT,
-                                      TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT});
+        decoded.values = reader.read(
+            sampler.output, sampler_label + " output", TINYGLTF_TYPE_VEC4,
+            {TINYGLTF_COMPONENT_TYPE_FLOAT, TINYGLTF_COMPONENT_TYPE_BYTE, TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE,
+             TINYGLTF_COMPONENT_TYPE_SHORT, TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT});
       } else {
-        decoded.values = reader.read(sampler.output, sampler_label + " output", TINYGLTF_TYPE_VEC3,
-                                     {TINYGLTF_COMPONENT_TYPE_FLOAT});
+        decoded.values =
+            reader.read(sampler.output, sampler_label + " output", TINYGLTF_TYPE_VEC3, {TINYGLTF_COMPONENT_TYPE_FLOAT});
       }
       const size_t elements = decoded.values.size() / static_cast<size_t>(decoded.components);
       if (elements != keyframes * per_keyframe)
@@ -386,8 +399,8 @@ void GltfAnimation::Impl::validate_animations(const AccessorReader& reader) {
         for (size_t e = 0; e < keyframes; ++e) {
           double* q = decoded.values.data() + (per_keyframe == 3 ? 3 * e + 1 : e) * 4;
           const double length = std::sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3]);
-          if (!(length > 1e-12)) reader.fail(sampler_label + " output has a zero-length rotation at keyframe " +
-                                             std::to_string(e));
+          if (!(length > 1e-12))
+            reader.fail(sampler_label + " output has a zero-length rotation at keyframe " + std::to_string(e));
           if (per_keyframe == 1)
             for (int i = 0; i < 4; ++i) q[i] /= length;
         }
@@ -426,16 +439,19 @@ std::vector<Mat4> GltfAnimation::Impl::world_matrices(size_t animation, double t
       sample_channel(channel, t, value);
       const size_t n = static_cast<size_t>(channel.node);
       animated[n] = 1;
-      if (channel.path == Path::translation) translation[n] = Vec3(value[0], value[1], value[2]);
-      else if (channel.path == Path::scale) scale[n] = Vec3(value[0], value[1], value[2]);
-      else rotation[n] = Quat(value[3], value[0], value[1], value[2]);
+      if (channel.path == Path::translation)
+        translation[n] = Vec3(value[0], value[1], value[2]);
+      else if (channel.path == Path::scale)
+        scale[n] = Vec3(value[0], value[1], value[2]);
+      else
+        rotation[n] = Quat(value[3], value[0], value[1], value[2]);
     }
   }
   std::vector<Mat4> world(nodes.size());
   for (int index : parents_first_order) {
     const size_t n = static_cast<size_t>(index);
-    const Mat4 local = nodes[n].has_matrix && !animated[n] ? nodes[n].matrix
-                                                           : local_matrix(translation[n], rotation[n], scale[n]);
+    const Mat4 local =
+        nodes[n].has_matrix && !animated[n] ? nodes[n].matrix : local_matrix(translation[n], rotation[n], scale[n]);
     world[n] = nodes[n].parent >= 0 ? world[static_cast<size_t>(nodes[n].parent)] * local : local;
   }
   return world;
@@ -460,8 +476,8 @@ GltfAnimation GltfAnimation::load_memory(const std::string& bytes, const std::st
   impl->name = name;
   tinygltf::TinyGLTF loader;
   loader.SetImageLoader(skip_image, nullptr);
-  loader.SetFsCallbacks(
-      tinygltf::FsCallbacks{tinygltf::FileExists, literal_path, tinygltf::ReadWholeFile, tinygltf::WriteWholeFile, nullptr});
+  loader.SetFsCallbacks(tinygltf::FsCallbacks{tinygltf::FileExists, literal_path, tinygltf::ReadWholeFile,
+                                              tinygltf::WriteWholeFile, nullptr});
   std::string error, warning;
   const bool binary = bytes.size() >= 4 && bytes.compare(0, 4, "glTF") == 0;
   const auto* data = reinterpret_cast<const unsigned char*>(bytes.data());
@@ -479,8 +495,9 @@ GltfAnimation GltfAnimation::load_memory(const std::string& bytes, const std::st
   } catch (const std::bad_alloc&) {
     throw;
   } catch (const std::exception&) {
-    throw GltfError(name + ": not a valid glTF file: the glTF parser failed on inconsistent data (for example a "
-                           "buffer whose byteLength is 0)");
+    throw GltfError(name +
+                    ": not a valid glTF file: the glTF parser failed on inconsistent data (for example a "
+                    "buffer whose byteLength is 0)");
   }
   if (!loaded) {
     // tinygltf's messages can span lines; keep the first for a one-line error.
@@ -539,7 +556,8 @@ std::vector<float> GltfAnimation::bind_pose_joint_matrices(size_t skin) const {
     for (size_t j = 0; j < joints; ++j)
       for (int i = 0; i < 16; ++i) matrices[16 * j + size_t(i)] = static_cast<float>(p[i]);
     for (float v : matrices)
-      if (!std::isfinite(v)) throw GltfError(impl_->name + ": node " + std::to_string(n) + " has a non-finite transform");
+      if (!std::isfinite(v))
+        throw GltfError(impl_->name + ": node " + std::to_string(n) + " has a non-finite transform");
     return matrices;
   }
   return matrices;
@@ -608,11 +626,14 @@ std::vector<uint32_t> GltfAnimation::primitive_triangles(size_t mesh, size_t pri
     triangles = std::move(indices);
   } else if (mode == TINYGLTF_MODE_TRIANGLE_STRIP) {
     for (size_t i = 2; i < indices.size(); ++i) {  // every other triangle flipped to keep the winding
-      if (i % 2 == 0) triangles.insert(triangles.end(), {indices[i - 2], indices[i - 1], indices[i]});
-      else triangles.insert(triangles.end(), {indices[i - 1], indices[i - 2], indices[i]});
+      if (i % 2 == 0)
+        triangles.insert(triangles.end(), {indices[i - 2], indices[i - 1], indices[i]});
+      else
+        triangles.insert(triangles.end(), {indices[i - 1], indices[i - 2], indices[i]});
     }
   } else if (mode == TINYGLTF_MODE_TRIANGLE_FAN) {
-    for (size_t i = 2; i < indices.size(); ++i) triangles.insert(triangles.end(), {indices[0], indices[i - 1], indices[i]});
+    for (size_t i = 2; i < indices.size(); ++i)
+      triangles.insert(triangles.end(), {indices[0], indices[i - 1], indices[i]});
   } else {
     throw GltfError(impl_->name + ": " + what + " has mode " + std::to_string(mode) + ", not triangles");
   }

@@ -47,9 +47,9 @@ class GltfError : public std::runtime_error {
 
 // One animation of the file.
 struct AnimationInfo {
-  std::string name;   // the glTF name, or "animation N" when it has none
-  double start = 0;   // first keyframe time of all its channels, seconds
-  double end = 0;     // last keyframe time of all its channels, seconds
+  std::string name;  // the glTF name, or "animation N" when it has none
+  double start = 0;  // first keyframe time of all its channels, seconds
+  double end = 0;    // last keyframe time of all its channels, seconds
   double duration() const { return end - start; }
 };
 
@@ -76,8 +76,7 @@ class GltfAnimation {
   static GltfAnimation load_file(const std::string& path);
   // The same on bytes in memory; `name` is used in messages and `base_dir` resolves
   // external URIs of a .gltf (data URIs need none).
-  static GltfAnimation load_memory(const std::string& bytes, const std::string& name,
-                                   const std::string& base_dir = "");
+  static GltfAnimation load_memory(const std::string& bytes, const std::string& name, const std::string& base_dir = "");
 
   GltfAnimation(GltfAnimation&&) noexcept;
   GltfAnimation& operator=(GltfAnimation&&) noexcept;

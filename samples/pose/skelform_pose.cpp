@@ -36,17 +36,17 @@
 
 namespace {
 
-using skelform::samples::GltfAnimation;
-using skelform::samples::HandleSet;
-using skelform::samples::read_handles;
 using skelform::samples::exit_code_of;
 using skelform::samples::fail;
+using skelform::samples::GltfAnimation;
+using skelform::samples::HandleSet;
 using skelform::samples::kExitInternal;
 using skelform::samples::kExitInvalidInput;
 using skelform::samples::kExitIo;
 using skelform::samples::kExitOk;
 using skelform::samples::kExitUsage;
 using skelform::samples::lowercase_extension;
+using skelform::samples::read_handles;
 
 const char* const kUsage =
     "usage: skelform-pose BAKED.glb (--rest | --bind | --static | --anim I --time T | --handles H.json)\n"
@@ -109,7 +109,8 @@ unsigned long parse_index(const std::string& flag, const std::string& text) {
 double parse_time(const std::string& text) {
   char* end = nullptr;
   const double value = std::strtod(text.c_str(), &end);
-  if (text.empty() || *end != '\0' || !std::isfinite(value)) fail(kExitUsage, "--time expects seconds, got '" + text + "'");
+  if (text.empty() || *end != '\0' || !std::isfinite(value))
+    fail(kExitUsage, "--time expects seconds, got '" + text + "'");
   return value;
 }
 
@@ -122,30 +123,46 @@ Arguments parse_arguments(int argc, char** argv) {
       if (i + 1 >= argc) fail(kExitUsage, arg + " needs a value");
       return argv[++i];
     };
-    if (arg == "-o" || arg == "--output") args.output = value();
-    else if (arg == "--rest") args.rest = true;
-    else if (arg == "--bind") args.bind = true;
-    else if (arg == "--static") args.static_pose = true;
-    else if (arg == "--anim") args.animation = parse_index(arg, value());
-    else if (arg == "--time") args.time = parse_time(value());
-    else if (arg == "--handles") args.handles = value();
-    else if (arg == "--deformable") args.deformable = static_cast<uint32_t>(parse_index(arg, value()));
+    if (arg == "-o" || arg == "--output")
+      args.output = value();
+    else if (arg == "--rest")
+      args.rest = true;
+    else if (arg == "--bind")
+      args.bind = true;
+    else if (arg == "--static")
+      args.static_pose = true;
+    else if (arg == "--anim")
+      args.animation = parse_index(arg, value());
+    else if (arg == "--time")
+      args.time = parse_time(value());
+    else if (arg == "--handles")
+      args.handles = value();
+    else if (arg == "--deformable")
+      args.deformable = static_cast<uint32_t>(parse_index(arg, value()));
     else if (arg == "--method") {
       const std::string method = value();
-      if (method == "skelform") args.method = SF_METHOD_SKELFORM;
-      else if (method == "lbs") args.method = SF_METHOD_LBS;
-      else if (method == "dqs") args.method = SF_METHOD_DQS;
-      else fail(kExitUsage, "--method must be skelform, lbs or dqs, got '" + method + "'");
-    } else if (arg == "-q" || arg == "--quiet") args.quiet = true;
-    else if (arg.size() > 1 && arg[0] == '-') fail(kExitUsage, "unknown option " + arg);
-    else positional.push_back(arg);
+      if (method == "skelform")
+        args.method = SF_METHOD_SKELFORM;
+      else if (method == "lbs")
+        args.method = SF_METHOD_LBS;
+      else if (method == "dqs")
+        args.method = SF_METHOD_DQS;
+      else
+        fail(kExitUsage, "--method must be skelform, lbs or dqs, got '" + method + "'");
+    } else if (arg == "-q" || arg == "--quiet")
+      args.quiet = true;
+    else if (arg.size() > 1 && arg[0] == '-')
+      fail(kExitUsage, "unknown option " + arg);
+    else
+      positional.push_back(arg);
   }
   if (positional.size() != 1)
     fail(kExitUsage, "expected one baked input file, got " + std::to_string(positional.size()));
   args.input = positional[0];
   const int poses = int(args.rest) + int(args.bind) + int(args.static_pose) + int(args.animation.has_value()) +
                     int(!args.handles.empty());
-  if (poses != 1) fail(kExitUsage, "choose exactly one of --rest, --bind, --static, --anim I --time T, --handles H.json");
+  if (poses != 1)
+    fail(kExitUsage, "choose exactly one of --rest, --bind, --static, --anim I --time T, --handles H.json");
   if (args.animation.has_value() != args.time.has_value()) fail(kExitUsage, "--anim and --time go together");
   if (args.output.empty()) fail(kExitUsage, "missing -o OUTPUT");
   const std::string extension = lowercase_extension(args.output);
@@ -222,7 +239,8 @@ std::string glb_bytes(const PosedMesh& mesh, const std::string& generator) {
   glb.document["scenes"] = {{{"nodes", {0}}}};
   glb.document["nodes"] = {{{"mesh", 0}}};
   glb.document["meshes"] = {
-      {{"primitives", {{{"attributes", {{"POSITION", position}, {"NORMAL", normal}}}, {"indices", indices}, {"mode", 4}}}}}};
+      {{"primitives",
+        {{{"attributes", {{"POSITION", position}, {"NORMAL", normal}}}, {"indices", indices}, {"mode", 4}}}}}};
   return glb.finish();
 }
 
@@ -260,8 +278,8 @@ int run(const Arguments& args) {
     if (info != SF_OK) fail(exit_code_of(info), "cannot describe deformable " + std::to_string(d));
     const sf_result created = sf_instance_create(asset.asset, d, &instance.handle);
     if (created != SF_OK)
-      fail(exit_code_of(created), "cannot create an instance of deformable " + std::to_string(d) + " (" +
-                                      sf_result_string(created) + ")");
+      fail(exit_code_of(created),
+           "cannot create an instance of deformable " + std::to_string(d) + " (" + sf_result_string(created) + ")");
     instances.push_back(std::move(instance));
   }
   if (!args.handles.empty() && instances.size() != 1)
@@ -281,7 +299,8 @@ int run(const Arguments& args) {
       pose_name = std::to_string(set.vertices.size()) + " handles";
     } else if (info.skin < 0) {
       if (args.animation || args.bind || args.static_pose)
-        fail(kExitInvalidInput, "deformable " + std::to_string(instance.deformable) + " has no skin: pose it with --handles");
+        fail(kExitInvalidInput,
+             "deformable " + std::to_string(instance.deformable) + " has no skin: pose it with --handles");
       pose_name = "rest";  // an unskinned deformable is created at rest
     } else {
       std::vector<float> matrices;
@@ -326,8 +345,8 @@ int run(const Arguments& args) {
       output.normals = mesh.normals.data() + 3 * first;
       output.vertex_capacity = primitive.vertex_count;
       instance.check(sf_instance_write(instance.handle, p, &output), "sf_instance_write");
-      const std::vector<uint32_t> triangles = gltf.primitive_triangles(static_cast<size_t>(instance.info.mesh),
-                                                                       static_cast<size_t>(primitive.primitive));
+      const std::vector<uint32_t> triangles =
+          gltf.primitive_triangles(static_cast<size_t>(instance.info.mesh), static_cast<size_t>(primitive.primitive));
       for (uint32_t index : triangles) {
         if (index >= primitive.vertex_count) fail(kExitInvalidInput, "a triangle index exceeds its primitive");
         mesh.triangles.push_back(static_cast<uint32_t>(first) + index);
@@ -336,11 +355,12 @@ int run(const Arguments& args) {
   }
 
   static const char* const kMethodNames[] = {"skelform", "lbs", "dqs"};
-  const std::string description = "skelform-pose " + args.input + ": " + pose_name + ", method " +
-                                   kMethodNames[args.method];
+  const std::string description =
+      "skelform-pose " + args.input + ": " + pose_name + ", method " + kMethodNames[args.method];
   try {
-    skelform::samples::write_file_atomically(
-        args.output, lowercase_extension(args.output) == ".obj" ? obj_text(mesh, description) : glb_bytes(mesh, "skelform-pose"));
+    skelform::samples::write_file_atomically(args.output, lowercase_extension(args.output) == ".obj"
+                                                              ? obj_text(mesh, description)
+                                                              : glb_bytes(mesh, "skelform-pose"));
   } catch (const std::runtime_error& e) {
     fail(kExitIo, e.what());
   }

@@ -39,7 +39,8 @@ DenseTopology dense_topology(const std::vector<float>& positions, const std::vec
   std::unordered_map<PositionKey, uint32_t, PositionHash> index;
   index.reserve(vertex_count);
   for (size_t v = 0; v < vertex_count; ++v) {
-    const PositionKey key{canonical(positions[3 * v]), canonical(positions[3 * v + 1]), canonical(positions[3 * v + 2])};
+    const PositionKey key{canonical(positions[3 * v]), canonical(positions[3 * v + 1]),
+                          canonical(positions[3 * v + 2])};
     const auto inserted = index.emplace(key, uint32_t(topology.vertex_of_welded.size()));
     if (inserted.second) topology.vertex_of_welded.push_back(uint32_t(v));
     topology.welded_of_vertex[v] = inserted.first->second;
@@ -69,9 +70,15 @@ DenseTopology dense_topology(const std::vector<float>& positions, const std::vec
     for (int k = 0; k < 3; ++k) ++directed[{t[k], t[(k + 1) % 3]}];
   bool closed = !topology.triangles.empty();
   for (const auto& [edge, count] : directed) {
-    if (count != 1) { closed = false; break; }
+    if (count != 1) {
+      closed = false;
+      break;
+    }
     const auto reverse = directed.find({edge.second, edge.first});
-    if (reverse == directed.end() || reverse->second != 1) { closed = false; break; }
+    if (reverse == directed.end() || reverse->second != 1) {
+      closed = false;
+      break;
+    }
   }
   topology.closed = closed;
   return topology;
@@ -106,8 +113,8 @@ double enclosed_volume(const DenseTopology& topology, const std::vector<float>& 
   double six_volume = 0.0;
   for (const auto& t : topology.triangles) {
     const auto a = at(t[0]), b = at(t[1]), c = at(t[2]);
-    six_volume += a[0] * (b[1] * c[2] - b[2] * c[1]) - a[1] * (b[0] * c[2] - b[2] * c[0]) +
-                  a[2] * (b[0] * c[1] - b[1] * c[0]);
+    six_volume +=
+        a[0] * (b[1] * c[2] - b[2] * c[1]) - a[1] * (b[0] * c[2] - b[2] * c[0]) + a[2] * (b[0] * c[1] - b[1] * c[0]);
   }
   return six_volume / 6.0;
 }

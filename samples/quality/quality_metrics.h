@@ -17,8 +17,8 @@
 namespace skelform::samples {
 
 struct DenseTopology {
-  std::vector<uint32_t> welded_of_vertex;   // per original vertex
-  std::vector<uint32_t> vertex_of_welded;   // first original vertex of each welded vertex
+  std::vector<uint32_t> welded_of_vertex;          // per original vertex
+  std::vector<uint32_t> vertex_of_welded;          // first original vertex of each welded vertex
   std::vector<std::array<uint32_t, 3>> triangles;  // welded corners, non-degenerate, unique
   // Every edge has exactly two triangles that use it in opposite directions: the mesh bounds
   // a volume (it may still intersect itself).

@@ -99,8 +99,8 @@ struct Arguments {
   bool check = false;
   bool quiet = false;
   unsigned jobs = 0;
-  sf_eval_options options{};  // skelform's evaluation options (--skeleton, --reconstruction, --fairing)
-  bool contacts = false;      // skelform with the contact pass on
+  sf_eval_options options{};        // skelform's evaluation options (--skeleton, --reconstruction, --fairing)
+  bool contacts = false;            // skelform with the contact pass on
   std::vector<std::string> waived;  // acceptance lines --check reports but does not enforce
 };
 
@@ -115,42 +115,65 @@ Arguments parse_arguments(int argc, char** argv) {
       if (i + 1 >= argc) fail(kExitUsage, arg + " needs a value");
       return argv[++i];
     };
-    if (arg == "--frames") args.frames = parse_integer(arg, value(), 2, 10000);
-    else if (arg == "--fps") args.fps = parse_positive(arg, value(), 1000.0);
-    else if (arg == "-j") args.jobs = unsigned(parse_integer(arg, value(), 1, 256));
+    if (arg == "--frames")
+      args.frames = parse_integer(arg, value(), 2, 10000);
+    else if (arg == "--fps")
+      args.fps = parse_positive(arg, value(), 1000.0);
+    else if (arg == "-j")
+      args.jobs = unsigned(parse_integer(arg, value(), 1, 256));
     else if (arg == "--skeleton") {
       const std::string v = value();
-      if (v == "arcs") args.options.skeleton_skinning = SF_SKELETON_ARCS;
-      else if (v == "lbs") args.options.skeleton_skinning = SF_SKELETON_LBS;
-      else if (v == "dqs") args.options.skeleton_skinning = SF_SKELETON_DQS;
-      else fail(kExitUsage, "--skeleton expects arcs, lbs or dqs, got '" + v + "'");
+      if (v == "arcs")
+        args.options.skeleton_skinning = SF_SKELETON_ARCS;
+      else if (v == "lbs")
+        args.options.skeleton_skinning = SF_SKELETON_LBS;
+      else if (v == "dqs")
+        args.options.skeleton_skinning = SF_SKELETON_DQS;
+      else
+        fail(kExitUsage, "--skeleton expects arcs, lbs or dqs, got '" + v + "'");
     } else if (arg == "--reconstruction") {
       const std::string v = value();
-      if (v == "carried") args.options.reconstruction = SF_RECONSTRUCTION_CARRIED;
-      else if (v == "paper") args.options.reconstruction = SF_RECONSTRUCTION_PAPER;
-      else fail(kExitUsage, "--reconstruction expects carried or paper, got '" + v + "'");
+      if (v == "carried")
+        args.options.reconstruction = SF_RECONSTRUCTION_CARRIED;
+      else if (v == "paper")
+        args.options.reconstruction = SF_RECONSTRUCTION_PAPER;
+      else
+        fail(kExitUsage, "--reconstruction expects carried or paper, got '" + v + "'");
     } else if (arg == "--fairing") {
       const std::string v = value();
-      if (v == "on") args.options.fairing_flags = 0;
-      else if (v == "off") args.options.fairing_flags = SF_FAIR_OFF;
-      else if (v == "folds") args.options.fairing_flags = SF_FAIR_NO_INTERSECTION_FLOW;
-      else if (v == "intersections") args.options.fairing_flags = SF_FAIR_NO_FOLD_FLOW;
-      else fail(kExitUsage, "--fairing expects on, off, folds or intersections, got '" + v + "'");
+      if (v == "on")
+        args.options.fairing_flags = 0;
+      else if (v == "off")
+        args.options.fairing_flags = SF_FAIR_OFF;
+      else if (v == "folds")
+        args.options.fairing_flags = SF_FAIR_NO_INTERSECTION_FLOW;
+      else if (v == "intersections")
+        args.options.fairing_flags = SF_FAIR_NO_FOLD_FLOW;
+      else
+        fail(kExitUsage, "--fairing expects on, off, folds or intersections, got '" + v + "'");
     } else if (arg == "--fairing-iterations") {
       args.options.fairing_iterations = uint32_t(parse_integer(arg, value(), 1, 1000));
-    } else if (arg == "--contacts") args.contacts = true;
+    } else if (arg == "--contacts")
+      args.contacts = true;
     else if (arg == "--waive") {
       const std::string line = value();
-      if (std::find_if(std::begin(kLines), std::end(kLines), [&](const char* l) { return line == l; }) == std::end(kLines))
-        fail(kExitUsage, "--waive expects one of worse-frames, pair-share, volume, rigid, rest, bind, refused; got '" + line + "'");
+      if (std::find_if(std::begin(kLines), std::end(kLines), [&](const char* l) { return line == l; }) ==
+          std::end(kLines))
+        fail(kExitUsage,
+             "--waive expects one of worse-frames, pair-share, volume, rigid, rest, bind, refused; got '" + line + "'");
       args.waived.push_back(line);
-    }
-    else if (arg == "--json") args.json = true;
-    else if (arg == "--markdown") args.markdown = true;
-    else if (arg == "--check") args.check = true;
-    else if (arg == "-q" || arg == "--quiet") args.quiet = true;
-    else if (arg.size() > 1 && arg[0] == '-') fail(kExitUsage, "unknown option " + arg);
-    else args.inputs.push_back(arg);
+    } else if (arg == "--json")
+      args.json = true;
+    else if (arg == "--markdown")
+      args.markdown = true;
+    else if (arg == "--check")
+      args.check = true;
+    else if (arg == "-q" || arg == "--quiet")
+      args.quiet = true;
+    else if (arg.size() > 1 && arg[0] == '-')
+      fail(kExitUsage, "unknown option " + arg);
+    else
+      args.inputs.push_back(arg);
   }
   if (args.inputs.empty()) fail(kExitUsage, "expected at least one file or directory");
   return args;
@@ -166,7 +189,8 @@ std::vector<std::string> collect_files(const std::vector<std::string>& inputs) {
       for (auto it = std::filesystem::recursive_directory_iterator(input, error);
            !error && it != std::filesystem::recursive_directory_iterator(); it.increment(error)) {
         const std::string extension = lowercase_extension(it->path().string());
-        if (it->is_regular_file() && (extension == ".glb" || extension == ".gltf")) found.push_back(it->path().string());
+        if (it->is_regular_file() && (extension == ".glb" || extension == ".gltf"))
+          found.push_back(it->path().string());
       }
       if (error) fail(kExitIo, "cannot list " + input + ": " + error.message());
       std::sort(found.begin(), found.end());
@@ -196,7 +220,7 @@ struct AnimationResult {
 
 struct FileResult {
   std::string path, pack, name;
-  std::string refused;  // the failure message; the rest is empty then
+  std::string refused;                // the failure message; the rest is empty then
   std::vector<std::string> warnings;  // exporter defects the in-memory bake repaired
   size_t vertices = 0, triangles = 0, rigid_vertices = 0, bind_pairs = 0;
   bool closed = true;
@@ -214,8 +238,8 @@ struct Instance {
   ~Instance() { sf_instance_destroy(handle); }
   void check(sf_result result, const char* call) const {
     if (result != SF_OK)
-      fail(exit_code_of(result), std::string(call) + ": " + sf_instance_last_error(handle) + " (" +
-                                     sf_result_string(result) + ")");
+      fail(exit_code_of(result),
+           std::string(call) + ": " + sf_instance_last_error(handle) + " (" + sf_result_string(result) + ")");
   }
 };
 
@@ -309,9 +333,9 @@ FileResult measure_file(const std::string& path, const Arguments& args) {
   try {
     LoadedAsset loaded = load_or_bake(path);
     result.warnings = loaded.warnings;
-    const skelform::bake::InputMesh input = skelform::bake::load_mesh_from_memory(
-        std::vector<unsigned char>(loaded.bytes.begin(), loaded.bytes.end()),
-        loaded.bytes.compare(0, 4, "glTF") == 0 ? ".glb" : ".gltf", path);
+    const skelform::bake::InputMesh input =
+        skelform::bake::load_mesh_from_memory(std::vector<unsigned char>(loaded.bytes.begin(), loaded.bytes.end()),
+                                              loaded.bytes.compare(0, 4, "glTF") == 0 ? ".glb" : ".gltf", path);
     const GltfAnimation gltf = GltfAnimation::load_file(path);
     const uint32_t count = sf_asset_deformable_count(loaded.asset.asset);
     std::vector<Character> characters(count);
@@ -321,17 +345,18 @@ FileResult measure_file(const std::string& path, const Arguments& args) {
       if (c.info.skin < 0) continue;  // nothing drives it: not a character
       for (Instance* instance : {&c.skelform, &c.lbs}) {
         const sf_result created = sf_instance_create(loaded.asset.asset, d, &instance->handle);
-        if (created != SF_OK) fail(exit_code_of(created), std::string("sf_instance_create: ") + sf_result_string(created));
+        if (created != SF_OK)
+          fail(exit_code_of(created), std::string("sf_instance_create: ") + sf_result_string(created));
       }
       if (args.contacts) c.skelform.check(sf_instance_set_contacts(c.skelform.handle, 1), "sf_instance_set_contacts");
       std::vector<float> stored(3 * size_t{c.info.vertex_count});
       std::vector<uint32_t> triangles;
       for (uint32_t p = 0; p < c.info.primitive_count; ++p) {
         sf_primitive_info primitive{};
-        if (sf_asset_primitive_info(loaded.asset.asset, d, p, &primitive) != SF_OK) fail(kExitInternal, "primitive info");
+        if (sf_asset_primitive_info(loaded.asset.asset, d, p, &primitive) != SF_OK)
+          fail(kExitInternal, "primitive info");
         c.primitives.push_back(primitive);
-        const std::vector<float> positions =
-            gltf.primitive_positions(size_t(c.info.mesh), size_t(primitive.primitive));
+        const std::vector<float> positions = gltf.primitive_positions(size_t(c.info.mesh), size_t(primitive.primitive));
         if (positions.size() != 3 * size_t{primitive.vertex_count})
           fail(kExitInvalidInput, "a baked primitive's vertex count differs from the glTF's");
         std::copy(positions.begin(), positions.end(), stored.begin() + 3 * size_t{primitive.first_vertex});
@@ -355,8 +380,8 @@ FileResult measure_file(const std::string& path, const Arguments& args) {
                        "sf_instance_set_joint_matrices");
       c.skelform.check(sf_instance_evaluate(c.skelform.handle, &from_rest), "sf_instance_evaluate");
       const double stored_diagonal = std::max(bounding_diagonal(stored), 1e-30);
-      result.rest_error = std::max(result.rest_error, max_distance(dense_positions(c.skelform, c), stored, nullptr) /
-                                                          stored_diagonal);
+      result.rest_error =
+          std::max(result.rest_error, max_distance(dense_positions(c.skelform, c), stored, nullptr) / stored_diagonal);
       // Bind pose: the reference of every metric.
       const std::vector<float> bind = gltf.bind_pose_joint_matrices(size_t(c.info.skin));
       for (Instance* instance : {&c.skelform, &c.lbs})
@@ -412,7 +437,8 @@ FileResult measure_file(const std::string& path, const Arguments& args) {
           const FrameResult frame = measure_frame(c);
           total.skelform_added += frame.skelform_added;
           total.lbs_added += frame.lbs_added;
-          total.skelform_volume = first ? frame.skelform_volume : std::max(total.skelform_volume, frame.skelform_volume);
+          total.skelform_volume =
+              first ? frame.skelform_volume : std::max(total.skelform_volume, frame.skelform_volume);
           total.lbs_volume = first ? frame.lbs_volume : std::max(total.lbs_volume, frame.lbs_volume);
           total.rigid = std::max(total.rigid, frame.rigid);
           first = false;
@@ -517,8 +543,8 @@ std::vector<Broken> broken_lines(const std::vector<FileResult>& files) {
     const Summary s = summarize(f);
     all.add(s);
     if (s.worse > 0)
-      broken.push_back({"worse-frames", f.path + ": " + std::to_string(s.worse) +
-                                            " frame(s) where skelform adds more pairs than LBS"});
+      broken.push_back({"worse-frames",
+                        f.path + ": " + std::to_string(s.worse) + " frame(s) where skelform adds more pairs than LBS"});
     if (f.closed && s.skelform_volume_mean() > s.lbs_volume_mean())
       broken.push_back({"volume", f.path + ": mean |volume change| " + percent(s.skelform_volume_mean()) +
                                       " above LBS's " + percent(s.lbs_volume_mean())});
@@ -529,17 +555,16 @@ std::vector<Broken> broken_lines(const std::vector<FileResult>& files) {
     if (f.bind_error > kMaxPoseError) broken.push_back({"bind", f.path + ": bind error " + scientific(f.bind_error)});
   }
   if (double(all.skelform_added) > kMaxPairShare * double(all.lbs_added))
-    broken.push_back({"pair-share", "skelform adds " + std::to_string(all.skelform_added) +
-                                        " pairs over all files, more than " + percent(kMaxPairShare) + " of LBS's " +
-                                        std::to_string(all.lbs_added) + " (" +
-                                        percent(double(all.skelform_added) / double(std::max<size_t>(all.lbs_added, 1))) +
-                                        ")"});
+    broken.push_back(
+        {"pair-share", "skelform adds " + std::to_string(all.skelform_added) + " pairs over all files, more than " +
+                           percent(kMaxPairShare) + " of LBS's " + std::to_string(all.lbs_added) + " (" +
+                           percent(double(all.skelform_added) / double(std::max<size_t>(all.lbs_added, 1))) + ")"});
   return broken;
 }
 
 void print_table(const std::vector<FileResult>& files) {
-  std::printf("%-28s %-26s %6s %17s %6s %17s %17s %8s\n", "file", "animation", "frames", "pairs added sk/LBS",
-              "worse", "mean |dV| sk/LBS", "worst |dV| sk/LBS", "rigid");
+  std::printf("%-28s %-26s %6s %17s %6s %17s %17s %8s\n", "file", "animation", "frames", "pairs added sk/LBS", "worse",
+              "mean |dV| sk/LBS", "worst |dV| sk/LBS", "rigid");
   std::map<std::string, Summary> packs;
   std::map<std::string, bool> pack_order;
   Summary all;
@@ -550,11 +575,12 @@ void print_table(const std::vector<FileResult>& files) {
     }
     for (const AnimationResult& a : f.animations) {
       const Summary s = summarize(a);
-      std::printf("%-28s %-26.26s %6zu %8zu / %-6zu %6zu %17s %17s %8s\n", f.name.c_str(), a.name.c_str(), s.frames,
-                  s.skelform_added, s.lbs_added, s.worse,
-                  f.closed ? (percent(s.skelform_volume_mean()) + " / " + percent(s.lbs_volume_mean())).c_str() : "open",
-                  f.closed ? (percent(s.skelform_volume_worst) + " / " + percent(s.lbs_volume_worst)).c_str() : "",
-                  scientific(s.rigid).c_str());
+      std::printf(
+          "%-28s %-26.26s %6zu %8zu / %-6zu %6zu %17s %17s %8s\n", f.name.c_str(), a.name.c_str(), s.frames,
+          s.skelform_added, s.lbs_added, s.worse,
+          f.closed ? (percent(s.skelform_volume_mean()) + " / " + percent(s.lbs_volume_mean())).c_str() : "open",
+          f.closed ? (percent(s.skelform_volume_worst) + " / " + percent(s.lbs_volume_worst)).c_str() : "",
+          scientific(s.rigid).c_str());
     }
     const Summary s = summarize(f);
     std::printf("%-28s %-26s %6zu %8zu / %-6zu %6zu %17s %17s %8s   rest %s bind %s, %zu pairs at bind, %.1f s\n",
@@ -578,8 +604,8 @@ void print_table(const std::vector<FileResult>& files) {
 // The summary of a pack (the files of one folder), or of every file.
 struct PackSummary {
   size_t files = 0, refused = 0, animations = 0;
-  Summary frames;           // every measured frame
-  Summary closed_frames;    // the frames of closed characters (volume)
+  Summary frames;         // every measured frame
+  Summary closed_frames;  // the frames of closed characters (volume)
   double rest_error = 0, bind_error = 0;
   void add(const FileResult& f) {
     ++files;
@@ -603,15 +629,16 @@ void print_markdown(const std::vector<FileResult>& files) {
     packs[f.pack].add(f);
     all.add(f);
   }
-  std::printf("| pack | characters | animations | frames | pairs added, skelform / LBS | frames skelform adds more | "
-              "closed characters: mean \\|ΔV\\|, skelform / LBS | largest rigid deviation | largest rest / bind error |\n");
+  std::printf(
+      "| pack | characters | animations | frames | pairs added, skelform / LBS | frames skelform adds more | "
+      "closed characters: mean \\|ΔV\\|, skelform / LBS | largest rigid deviation | largest rest / bind error |\n");
   std::printf("| --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: |\n");
   auto row = [&](const std::string& name, const PackSummary& p) {
     const Summary& s = p.frames;
     const std::string share = s.lbs_added ? " (" + percent(double(s.skelform_added) / double(s.lbs_added)) + ")" : "";
-    const std::string volume = p.closed_frames.frames
-                                   ? percent(p.closed_frames.skelform_volume_mean()) + " / " + percent(p.closed_frames.lbs_volume_mean())
-                                   : "(none closed)";
+    const std::string volume = p.closed_frames.frames ? percent(p.closed_frames.skelform_volume_mean()) + " / " +
+                                                            percent(p.closed_frames.lbs_volume_mean())
+                                                      : "(none closed)";
     std::printf("| %s | %zu%s | %zu | %zu | %zu / %zu%s | %zu | %s | %s | %s / %s |\n", name.c_str(), p.files,
                 p.refused ? (" (" + std::to_string(p.refused) + " refused)").c_str() : "", p.animations, s.frames,
                 s.skelform_added, s.lbs_added, share.c_str(), s.worse, volume.c_str(), scientific(s.rigid).c_str(),
@@ -668,8 +695,8 @@ int run(const Arguments& args) {
   std::vector<FileResult> results(files.size());
   std::atomic<size_t> next{0};
   std::mutex print_mutex;
-  const unsigned jobs = std::max(1u, std::min<unsigned>(args.jobs ? args.jobs : std::thread::hardware_concurrency(),
-                                                        unsigned(files.size())));
+  const unsigned jobs = std::max(
+      1u, std::min<unsigned>(args.jobs ? args.jobs : std::thread::hardware_concurrency(), unsigned(files.size())));
   auto worker = [&]() {
     for (size_t i = next++; i < files.size(); i = next++) {
       results[i] = measure_file(files[i], args);
@@ -698,7 +725,9 @@ int run(const Arguments& args) {
     else
       print_table(results);
     if (args.check) {
-      std::printf("\nacceptance: %s\n", broken.empty() ? "every line holds" : failed ? "broken" : "holds but for waived lines");
+      std::printf("\nacceptance: %s\n", broken.empty() ? "every line holds"
+                                        : failed       ? "broken"
+                                                       : "holds but for waived lines");
       for (const Broken& b : broken) std::printf("  %s%s\n", waived(b) ? "(waived) " : "", b.message.c_str());
     }
   }
@@ -708,5 +737,6 @@ int run(const Arguments& args) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  return skelform::samples::run_main("skelform-quality", kUsage, argc, argv, [&] { return run(parse_arguments(argc, argv)); });
+  return skelform::samples::run_main("skelform-quality", kUsage, argc, argv,
+                                     [&] { return run(parse_arguments(argc, argv)); });
 }

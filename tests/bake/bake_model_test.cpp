@@ -55,7 +55,8 @@ void check_consistent(const BakedDeformable& baked) {
   // Paper eq. (1) at rest, in the stored floats: M = S + d·N.
   for (size_t v = 0; v < control; ++v) {
     const glm::vec3 rebuilt = baked.skeletal_positions[v] + baked.medial_radius[v] * baked.control_normals[v];
-    CHECK(glm::length(rebuilt - baked.control_positions[v]) <= 1e-5f * (1.0f + glm::length(baked.control_positions[v])));
+    CHECK(glm::length(rebuilt - baked.control_positions[v]) <=
+          1e-5f * (1.0f + glm::length(baked.control_positions[v])));
     CHECK(baked.medial_radius[v] >= 0.0f);
   }
   for (size_t s = 0; s < baked.weight_sets.size(); ++s) CHECK(baked.weight_sets[s].size() == control);
@@ -65,7 +66,7 @@ void check_consistent(const BakedDeformable& baked) {
 
 TEST_CASE("a decimated capsule bakes and its binding reproduces every vertex at rest") {
   const TriangleMesh dense = make_capsule(0.5, 3.0, 64, 120, 16);  // ~19K triangles
-  const BakeResult result = bake_model(as_input(dense));  // default: ~4000 control triangles
+  const BakeResult result = bake_model(as_input(dense));           // default: ~4000 control triangles
   REQUIRE(result.deformables.size() == 1);
   const BakedDeformable& baked = result.deformables[0];
   check_consistent(baked);
@@ -95,8 +96,8 @@ TEST_CASE("a flat mesh bakes with the zero-radius skeleton") {
 }
 
 TEST_CASE("every skinned model of the data set bakes and reproduces its rest pose") {
-  for (const char* name : {"RiggedSimple/RiggedSimple.glb", "RiggedFigure/RiggedFigure.glb", "SimpleSkin/SimpleSkin.gltf",
-                           "Fox/Fox.glb", "CesiumMan/CesiumMan.glb"}) {
+  for (const char* name : {"RiggedSimple/RiggedSimple.glb", "RiggedFigure/RiggedFigure.glb",
+                           "SimpleSkin/SimpleSkin.gltf", "Fox/Fox.glb", "CesiumMan/CesiumMan.glb"}) {
     SKELFORM_REQUIRE_DATA(path, name);
     CAPTURE(std::string(name));
     const InputMesh input = load_mesh(path.string());
@@ -107,9 +108,9 @@ TEST_CASE("every skinned model of the data set bakes and reproduces its rest pos
     CHECK(baked.skin >= 0);
     const double error = rest_error(baked, input.positions);
     const DeformableReport& r = result.reports[0];
-    MESSAGE(std::string(name) << ": " << r.dense_vertices << " vertices, control " << r.control_triangles << " triangles, level "
-                 << r.subdivision_level << ", residual share " << r.residual_share << ", rest error " << error
-                 << ", skeleton inside " << r.skeleton_inside);
+    MESSAGE(std::string(name) << ": " << r.dense_vertices << " vertices, control " << r.control_triangles
+                              << " triangles, level " << r.subdivision_level << ", residual share " << r.residual_share
+                              << ", rest error " << error << ", skeleton inside " << r.skeleton_inside);
     CHECK(error <= 1e-5);
   }
 }

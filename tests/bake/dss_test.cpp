@@ -127,8 +127,8 @@ TEST_CASE("dss_frame: degenerate triangles and zero or cancelling normals give a
     check_orthonormal(dss::surface_frame(glm::vec3(1), glm::vec3(1), glm::vec3(1), zero, zero, zero, 0.3f, 0.3f));
   }
   SUBCASE("collinear corners, normals zero") {
-    check_orthonormal(dss::surface_frame(glm::vec3(0), glm::vec3(1, 0, 0), glm::vec3(2, 0, 0), zero, zero, zero, 0.3f,
-                                         0.3f));
+    check_orthonormal(
+        dss::surface_frame(glm::vec3(0), glm::vec3(1, 0, 0), glm::vec3(2, 0, 0), zero, zero, zero, 0.3f, 0.3f));
   }
   SUBCASE("normals cancelling at the point fall back to the face normal") {
     const dss::SurfaceFrame f =
@@ -173,11 +173,11 @@ TEST_CASE("dss_frame: vertex_normals are area-weighted unit normals, zero for is
 TEST_CASE("dss_frame: medial_normal_sums turns each sum halfway onto P - S and keeps its length") {
   const float inf = std::numeric_limits<float>::infinity(), nan = std::numeric_limits<float>::quiet_NaN();
   // Vertex by vertex: position P, skeletal position S, area-weighted sum A.
-  const glm::vec3 positions[] = {{0, 0, 2}, {0, 0, 0}, {1, 0, 0}, {0, 0, 1}, {0, 0, 1},
+  const glm::vec3 positions[] = {{0, 0, 2}, {0, 0, 0},   {1, 0, 0},   {0, 0, 1}, {0, 0, 1},
                                  {0, 0, 1}, {nan, 0, 0}, {0, 0, inf}, {1, 2, 3}};
-  const glm::vec3 skeletal[] = {{0, 0, 0}, {-3, 0, 0}, {1, 0, 0}, {0, 0, 0}, {0, 0, 0},
-                                {0, 0, 0}, {0, 0, 0}, {0, 0, 0}, {1, 2, 3.5f}};
-  glm::vec3 sums[] = {{0, 0, 4}, {0, 0, 2}, {0, 3, 0}, {0, 0, 0}, {0, 0, -5},
+  const glm::vec3 skeletal[] = {{0, 0, 0}, {-3, 0, 0}, {1, 0, 0}, {0, 0, 0},   {0, 0, 0},
+                                {0, 0, 0}, {0, 0, 0},  {0, 0, 0}, {1, 2, 3.5f}};
+  glm::vec3 sums[] = {{0, 0, 4},      {0, 0, 2}, {0, 3, 0}, {0, 0, 0},   {0, 0, -5},
                       {1e-31f, 0, 0}, {0, 1, 0}, {0, 1, 0}, {0, 0, 0.5f}};
   const glm::vec3 before[9] = {sums[0], sums[1], sums[2], sums[3], sums[4], sums[5], sums[6], sums[7], sums[8]};
   dss::medial_normal_sums(positions, skeletal, 9, sums);

@@ -133,7 +133,8 @@ std::string accessor_bytes(const GltfFile& file, const Json& index, const format
 }
 
 template <typename T>
-void check_array(const GltfFile& file, const Json& group, const char* group_name, const char* name, const std::vector<T>& expected) {
+void check_array(const GltfFile& file, const Json& group, const char* group_name, const char* name,
+                 const std::vector<T>& expected) {
   INFO(group_name << "." << name);
   const format::ArraySpec* spec = nullptr;
   for (const format::ArraySpec& s : format::kArrays) {
@@ -152,7 +153,8 @@ void check_extension(const GltfFile& output, const std::vector<BakedDeformable>&
   REQUIRE(document.contains("extensionsUsed"));
   CHECK(std::count(document["extensionsUsed"].begin(), document["extensionsUsed"].end(), format::kExtensionName) == 1);
   if (document.contains("extensionsRequired")) {
-    CHECK(std::count(document["extensionsRequired"].begin(), document["extensionsRequired"].end(), format::kExtensionName) == 0);
+    CHECK(std::count(document["extensionsRequired"].begin(), document["extensionsRequired"].end(),
+                     format::kExtensionName) == 0);
   }
   REQUIRE(document["extensions"].contains(format::kExtensionName));
   const Json& extension = document["extensions"][format::kExtensionName];
@@ -236,7 +238,8 @@ void check_tinygltf_loads(const fs::path& path) {
 // Small, valid-shaped synthetic bake data: 4 control vertices, 2 triangles, level-1-like
 // stencils (4 copies + 1 edge midpoint), 3 refined triangles, a binding per dense vertex.
 // Values have full mantissas (thirds) so a lossy path would show.
-BakedDeformable synthetic_deformable(int mesh, int node, int skin, std::vector<int> primitives, uint32_t dense, float seed) {
+BakedDeformable synthetic_deformable(int mesh, int node, int skin, std::vector<int> primitives, uint32_t dense,
+                                     float seed) {
   BakedDeformable d;
   d.mesh = mesh;
   d.node = node;
@@ -308,10 +311,12 @@ void bake_and_check(const fs::path& input, const std::vector<BakedDeformable>& d
   again.replace_filename("again-" + output.filename().string());
   skelform::bake::write_baked_gltf(input.string(), deformables, again.string());
   std::string second = read_bytes(again);
-  const bool external_bin = output.extension() == ".gltf" && out.document["buffers"][0]["uri"].get<std::string>().rfind("data:", 0) != 0;
+  const bool external_bin =
+      output.extension() == ".gltf" && out.document["buffers"][0]["uri"].get<std::string>().rfind("data:", 0) != 0;
   if (external_bin) {
     // The document names its own .bin; only that name differs.
-    CHECK(read_bytes(fs::path(again).replace_extension(".bin")) == read_bytes(fs::path(output).replace_extension(".bin")));
+    CHECK(read_bytes(fs::path(again).replace_extension(".bin")) ==
+          read_bytes(fs::path(output).replace_extension(".bin")));
     Json a = Json::parse(first), b = Json::parse(second);
     a["buffers"][0].erase("uri");
     b["buffers"][0].erase("uri");
@@ -345,8 +350,10 @@ TinyModel tiny_model() {
   for (int m = 0; m < 2; ++m)
     for (int i = 0; i < 16; ++i) f32(model.extra_bin, i % 5 == 0 ? 1.f : 0.f);  // identity
   model.png = std::string(
-      "\x89\x50\x4e\x47\x0d\x0a\x1a\x0a\x00\x00\x00\x0d\x49\x48\x44\x52\x00\x00\x00\x01\x00\x00\x00\x01\x08\x02\x00\x00\x00\x90"
-      "\x77\x53\xde\x00\x00\x00\x0c\x49\x44\x41\x54\x78\x9c\x63\xf8\xdf\xc0\x00\x00\x04\x01\x01\x80\xc5\x2a\x18\x5d\x00\x00\x00"
+      "\x89\x50\x4e\x47\x0d\x0a\x1a\x0a\x00\x00\x00\x0d\x49\x48\x44\x52\x00\x00\x00\x01\x00\x00\x00\x01\x08\x02\x00\x00"
+      "\x00\x90"
+      "\x77\x53\xde\x00\x00\x00\x0c\x49\x44\x41\x54\x78\x9c\x63\xf8\xdf\xc0\x00\x00\x04\x01\x01\x80\xc5\x2a\x18\x5d\x00"
+      "\x00\x00"
       "\x00\x49\x45\x4e\x44\xae\x42\x60\x82",
       69);
   model.document = Json::parse(R"({
@@ -424,214 +431,234 @@ ErrorKind error_kind_of(F&& f) {
 }  // namespace
 
 TEST_SUITE("gltf_writer") {
-
-TEST_CASE("gltf_writer: tiny .gltf with external buffers -> .gltf elsewhere resolves its copied resources") {
-  const fs::path in = write_tiny_inputs("gltf_writer_tiny_in");
-  const fs::path out = validator_dir() / "tiny-gltf" / "tiny.skf.gltf";
-  fs::create_directories(out.parent_path());
-  bake_and_check(in / "tiny.gltf", tiny_deformables(), out);
-  const GltfFile baked = read_gltf(out);
-  CHECK(baked.document["buffers"][0]["uri"] == "tiny.skf.bin");
-  CHECK(fs::exists(out.parent_path() / "tiny.skf.bin"));
-  CHECK(read_bytes(out.parent_path() / "skin matrices.bin") == read_bytes(in / "skin matrices.bin"));
-  CHECK(read_bytes(out.parent_path() / "textures" / "pixel.png") == read_bytes(in / "textures" / "pixel.png"));
-  CHECK(baked.document["extensionsUsed"] == Json::array({"KHR_materials_emissive_strength", format::kExtensionName}));
-}
-
-TEST_CASE("gltf_writer: tiny .gltf and .glb -> .glb keep buffer 0 in the BIN chunk") {
-  const fs::path in = write_tiny_inputs("gltf_writer_tiny_in");
-  const fs::path out_dir = validator_dir() / "tiny-glb";
-  fs::create_directories(out_dir);
-  bake_and_check(in / "tiny.gltf", tiny_deformables(), out_dir / "tiny-from-gltf.skf.glb");
-  bake_and_check(in / "tiny.glb", tiny_deformables(), out_dir / "tiny-from-glb.skf.glb");
-  for (const char* name : {"tiny-from-gltf.skf.glb", "tiny-from-glb.skf.glb"}) {
-    const GltfFile baked = read_gltf(out_dir / name);
-    CHECK_FALSE(baked.document["buffers"][0].contains("uri"));
+  TEST_CASE("gltf_writer: tiny .gltf with external buffers -> .gltf elsewhere resolves its copied resources") {
+    const fs::path in = write_tiny_inputs("gltf_writer_tiny_in");
+    const fs::path out = validator_dir() / "tiny-gltf" / "tiny.skf.gltf";
+    fs::create_directories(out.parent_path());
+    bake_and_check(in / "tiny.gltf", tiny_deformables(), out);
+    const GltfFile baked = read_gltf(out);
+    CHECK(baked.document["buffers"][0]["uri"] == "tiny.skf.bin");
+    CHECK(fs::exists(out.parent_path() / "tiny.skf.bin"));
+    CHECK(read_bytes(out.parent_path() / "skin matrices.bin") == read_bytes(in / "skin matrices.bin"));
+    CHECK(read_bytes(out.parent_path() / "textures" / "pixel.png") == read_bytes(in / "textures" / "pixel.png"));
+    CHECK(baked.document["extensionsUsed"] == Json::array({"KHR_materials_emissive_strength", format::kExtensionName}));
   }
-  // Both containers of the same model give the same BIN bytes.
-  CHECK(read_gltf(out_dir / "tiny-from-gltf.skf.glb").buffer0 == read_gltf(out_dir / "tiny-from-glb.skf.glb").buffer0);
-}
 
-TEST_CASE("gltf_writer: baked_glb from memory equals the file written") {
-  const fs::path in = write_tiny_inputs("gltf_writer_tiny_in");
-  const fs::path out = skelform::test::scratch_dir("gltf_writer_memory") / "tiny.glb";
-  skelform::bake::write_baked_gltf((in / "tiny.glb").string(), tiny_deformables(), out.string());
-  CHECK(skelform::bake::baked_glb(read_bytes(in / "tiny.glb"), in.string(), tiny_deformables()) == read_bytes(out));
-}
-
-TEST_CASE("gltf_writer: extensionsRequired never lists the extension, a re-bake keeps one entry") {
-  const fs::path in = write_tiny_inputs("gltf_writer_required");
-  TinyModel model = tiny_model();
-  model.document["extensionsUsed"].push_back(format::kExtensionName);
-  model.document["extensionsRequired"] = Json::array({format::kExtensionName});
-  write_bytes(in / "required.gltf", model.document.dump());
-  const fs::path out = in / "out" / "required.glb";
-  fs::create_directories(out.parent_path());
-  skelform::bake::write_baked_gltf((in / "required.gltf").string(), tiny_deformables(), out.string());
-  const GltfFile baked = read_gltf(out);
-  CHECK_FALSE(baked.document.contains("extensionsRequired"));
-  check_extension(baked, tiny_deformables());
-}
-
-TEST_CASE("gltf_writer: real models, every container") {
-  struct Case {
-    const char* input;
-    const char* output;
-  };
-  const Case cases[] = {
-      {"CesiumMan/CesiumMan.glb", "CesiumMan.skf.glb"},    {"CesiumMan/CesiumMan.glb", "CesiumMan.skf.gltf"},
-      {"Fox/Fox.glb", "Fox.skf.glb"},                      {"SimpleSkin/SimpleSkin.gltf", "SimpleSkin.skf.glb"},
-      {"SimpleSkin/SimpleSkin.gltf", "SimpleSkin.skf.gltf"}, {"RiggedFigure/RiggedFigure.glb", "RiggedFigure.skf.glb"},
-  };
-  for (const Case& c : cases) {
-    SKELFORM_REQUIRE_DATA(input, c.input);
-    const GltfFile original = read_gltf(input);
-    const std::vector<BakedDeformable> deformables = deformables_for(original.document);
-    REQUIRE(!deformables.empty());
-    bake_and_check(input, deformables, validator_dir() / c.output);
-  }
-  SKELFORM_REQUIRE_DATA(simple_skin, "SimpleSkin/SimpleSkin.gltf");
-  const Json baked = read_gltf(validator_dir() / "SimpleSkin.skf.gltf").document;
-  CHECK(baked["buffers"][0]["uri"].get<std::string>().rfind("data:application/octet-stream;base64,", 0) == 0);
-}
-
-TEST_CASE("gltf_writer: a failed write leaves no file and an existing output untouched") {
-  const fs::path in = write_tiny_inputs("gltf_writer_atomic");
-  // A directory that does not exist cannot be written to.
-  const fs::path missing = in / "no such directory" / "out.glb";
-  CHECK(error_kind_of([&] { skelform::bake::write_baked_gltf((in / "tiny.glb").string(), tiny_deformables(), missing.string()); }) ==
-        ErrorKind::io);
-  CHECK_FALSE(fs::exists(missing));
-
-  // An existing output, and its temporary file's name taken by a directory: the write fails
-  // (even as root) and the old output stays as it was.
-  const fs::path existing = in / "existing.glb";
-  write_bytes(existing, "previous output");
-  fs::path blocker = existing;
-  blocker += ".tmp-skelform-" + std::to_string(::getpid());
-  fs::create_directories(blocker);
-  CHECK(error_kind_of([&] { skelform::bake::write_baked_gltf((in / "tiny.glb").string(), tiny_deformables(), existing.string()); }) ==
-        ErrorKind::io);
-  CHECK(read_bytes(existing) == "previous output");
-  fs::remove_all(blocker);
-
-  // Bad bake data is refused before anything is written.
-  std::vector<BakedDeformable> bad = tiny_deformables();
-  bad[0].binding_triangle.pop_back();
-  CHECK_THROWS_AS(skelform::bake::write_baked_gltf((in / "tiny.glb").string(), bad, existing.string()), std::invalid_argument);
-  bad = tiny_deformables();
-  bad[1].dense_vertex_count = 5;
-  CHECK_THROWS_AS(skelform::bake::write_baked_gltf((in / "tiny.glb").string(), bad, existing.string()), std::invalid_argument);
-  bad = tiny_deformables();
-  bad[0].mesh = 7;
-  CHECK_THROWS_AS(skelform::bake::write_baked_gltf((in / "tiny.glb").string(), bad, existing.string()), std::invalid_argument);
-  CHECK(read_bytes(existing) == "previous output");
-}
-
-TEST_CASE("gltf_writer: the input and the files it uses are never overwritten") {
-  const fs::path in = write_tiny_inputs("gltf_writer_inplace");
-  const std::string gltf = read_bytes(in / "tiny.gltf"), bin = read_bytes(in / "tiny.bin");
-  CHECK(error_kind_of([&] { skelform::bake::write_baked_gltf((in / "tiny.gltf").string(), tiny_deformables(), (in / "tiny.gltf").string()); }) ==
-        ErrorKind::usage);
-  // out "tiny.gltf" beside "tiny.bin" in another name: tiny.bin is the input's buffer 0.
-  CHECK(error_kind_of([&] {
-          skelform::bake::write_baked_gltf((in / "tiny.gltf").string(), tiny_deformables(), (in / "tiny.GLTF").string());
-        }) == ErrorKind::usage);
-  CHECK(read_bytes(in / "tiny.gltf") == gltf);
-  CHECK(read_bytes(in / "tiny.bin") == bin);
-  CHECK(error_kind_of([&] { skelform::bake::write_baked_gltf((in / "tiny.gltf").string(), tiny_deformables(), (in / "tiny.obj").string()); }) ==
-        ErrorKind::usage);
-}
-
-TEST_CASE("gltf_writer: malformed input is refused with invalid_input, never a crash") {
-  const fs::path dir = skelform::test::scratch_dir("gltf_writer_malformed");
-  const TinyModel model = tiny_model();
-  Json glb_document = model.document;
-  glb_document["buffers"][0].erase("uri");
-  const std::string glb = make_glb(glb_document.dump(), model.bin);
-
-  std::vector<std::pair<std::string, std::string>> inputs = {
-      {"empty.glb", ""},
-      {"array.gltf", "[1, 2, 3]"},
-      {"number.gltf", "42"},
-      {"truncated-json.gltf", model.document.dump().substr(0, 100)},
-      {"glb-header-only.glb", glb.substr(0, 12)},
-      {"glb-truncated.glb", glb.substr(0, glb.size() / 2)},
-      {"glb-short-bin.glb", make_glb(glb_document.dump(), model.bin.substr(0, 40))},
-      {"glb-no-bin.glb", make_glb(glb_document.dump(), "")},
-      {"buffers-not-array.gltf", R"({"asset": {"version": "2.0"}, "buffers": {"uri": "x"}})"},
-      {"bad-byte-length.gltf", R"({"asset": {"version": "2.0"}, "buffers": [{"uri": "tiny.bin", "byteLength": -1}]})"},
-      {"bad-base64.gltf", R"({"asset": {"version": "2.0"}, "buffers": [{"uri": "data:application/octet-stream;base64,@@@@", "byteLength": 3}]})"},
-  };
-  std::string bad_length = glb;
-  const uint32_t huge = 0x7FFFFFF0;
-  std::memcpy(&bad_length[12], &huge, 4);
-  inputs.emplace_back("glb-bad-chunk-length.glb", bad_length);
-  std::string bad_version = glb;
-  bad_version[4] = 1;
-  inputs.emplace_back("glb-version-1.glb", bad_version);
-
-  for (const auto& input : inputs) {
-    const std::string& name = input.first;
-    const std::string& bytes = input.second;
-    INFO(name);
-    write_bytes(dir / name, bytes);
-    const fs::path out = dir / ("out-" + name + ".glb");
-    CHECK(error_kind_of([&] { skelform::bake::write_baked_gltf((dir / name).string(), tiny_deformables(), out.string()); }) ==
-          ErrorKind::invalid_input);
-    CHECK_FALSE(fs::exists(out));
-    CHECK_THROWS_AS(skelform::bake::baked_glb(bytes, dir.string(), tiny_deformables()), Error);
-  }
-  CHECK(error_kind_of([&] { skelform::bake::write_baked_gltf((dir / "absent.gltf").string(), tiny_deformables(), (dir / "x.glb").string()); }) ==
-        ErrorKind::io);
-}
-
-TEST_CASE("gltf_writer: the JSON schema is valid JSON and the written extension has its required members") {
-  const fs::path schema_path = fs::path(SKELFORM_SOURCE_DIR) / "docs" / "SKELFORM_skeletal_deformation.schema.json";
-  const Json schema = Json::parse(read_bytes(schema_path));
-  REQUIRE(schema.is_object());
-  CHECK(schema.contains("$schema"));
-  CHECK(schema["title"] == format::kExtensionName);
-
-  const fs::path in = write_tiny_inputs("gltf_writer_schema");
-  const fs::path out = in / "out.glb";
-  skelform::bake::write_baked_gltf((in / "tiny.glb").string(), tiny_deformables(), out.string());
-  const Json extension = read_gltf(out).document["extensions"][format::kExtensionName];
-
-  // A hand check of the schema's "required" and property types on each object level (no
-  // JSON Schema library is available): definitions are resolved through "$defs" by name.
-  std::function<void(const Json&, const Json&, const std::string&)> check_object = [&](const Json& object_schema, const Json& value,
-                                                                                       const std::string& where) {
-    INFO(where);
-    const Json* resolved = &object_schema;
-    if (resolved->contains("$ref")) {
-      const std::string ref = (*resolved)["$ref"];
-      REQUIRE(ref.rfind("#/$defs/", 0) == 0);
-      resolved = &schema["$defs"][ref.substr(8)];
+  TEST_CASE("gltf_writer: tiny .gltf and .glb -> .glb keep buffer 0 in the BIN chunk") {
+    const fs::path in = write_tiny_inputs("gltf_writer_tiny_in");
+    const fs::path out_dir = validator_dir() / "tiny-glb";
+    fs::create_directories(out_dir);
+    bake_and_check(in / "tiny.gltf", tiny_deformables(), out_dir / "tiny-from-gltf.skf.glb");
+    bake_and_check(in / "tiny.glb", tiny_deformables(), out_dir / "tiny-from-glb.skf.glb");
+    for (const char* name : {"tiny-from-gltf.skf.glb", "tiny-from-glb.skf.glb"}) {
+      const GltfFile baked = read_gltf(out_dir / name);
+      CHECK_FALSE(baked.document["buffers"][0].contains("uri"));
     }
-    const std::string type = resolved->value("type", "");
-    if (type == "object") {
-      REQUIRE(value.is_object());
-      for (const Json& key : resolved->value("required", Json::array())) CHECK_MESSAGE(value.contains(key.get<std::string>()), key);
-      const Json properties = resolved->value("properties", Json::object());
-      for (const auto& item : value.items()) {
-        const std::string key = item.key();
-        const Json& member = item.value();
-        CHECK_MESSAGE(properties.contains(key), "member not in the schema: " << where << "." << key);
-        if (properties.contains(key)) check_object(properties[key], member, where + "." + key);
-      }
-    } else if (type == "array") {
-      REQUIRE(value.is_array());
-      CHECK(value.size() >= resolved->value("minItems", size_t(0)));
-      for (size_t i = 0; i < value.size(); ++i) check_object((*resolved)["items"], value[i], where + "[" + std::to_string(i) + "]");
-    } else if (type == "integer") {
-      CHECK(value.is_number_integer());
-      if (resolved->contains("minimum")) CHECK(value.get<int64_t>() >= (*resolved)["minimum"].get<int64_t>());
-    } else {
-      FAIL("schema type not handled by this check: " << type);
+    // Both containers of the same model give the same BIN bytes.
+    CHECK(read_gltf(out_dir / "tiny-from-gltf.skf.glb").buffer0 ==
+          read_gltf(out_dir / "tiny-from-glb.skf.glb").buffer0);
+  }
+
+  TEST_CASE("gltf_writer: baked_glb from memory equals the file written") {
+    const fs::path in = write_tiny_inputs("gltf_writer_tiny_in");
+    const fs::path out = skelform::test::scratch_dir("gltf_writer_memory") / "tiny.glb";
+    skelform::bake::write_baked_gltf((in / "tiny.glb").string(), tiny_deformables(), out.string());
+    CHECK(skelform::bake::baked_glb(read_bytes(in / "tiny.glb"), in.string(), tiny_deformables()) == read_bytes(out));
+  }
+
+  TEST_CASE("gltf_writer: extensionsRequired never lists the extension, a re-bake keeps one entry") {
+    const fs::path in = write_tiny_inputs("gltf_writer_required");
+    TinyModel model = tiny_model();
+    model.document["extensionsUsed"].push_back(format::kExtensionName);
+    model.document["extensionsRequired"] = Json::array({format::kExtensionName});
+    write_bytes(in / "required.gltf", model.document.dump());
+    const fs::path out = in / "out" / "required.glb";
+    fs::create_directories(out.parent_path());
+    skelform::bake::write_baked_gltf((in / "required.gltf").string(), tiny_deformables(), out.string());
+    const GltfFile baked = read_gltf(out);
+    CHECK_FALSE(baked.document.contains("extensionsRequired"));
+    check_extension(baked, tiny_deformables());
+  }
+
+  TEST_CASE("gltf_writer: real models, every container") {
+    struct Case {
+      const char* input;
+      const char* output;
+    };
+    const Case cases[] = {
+        {"CesiumMan/CesiumMan.glb", "CesiumMan.skf.glb"},
+        {"CesiumMan/CesiumMan.glb", "CesiumMan.skf.gltf"},
+        {"Fox/Fox.glb", "Fox.skf.glb"},
+        {"SimpleSkin/SimpleSkin.gltf", "SimpleSkin.skf.glb"},
+        {"SimpleSkin/SimpleSkin.gltf", "SimpleSkin.skf.gltf"},
+        {"RiggedFigure/RiggedFigure.glb", "RiggedFigure.skf.glb"},
+    };
+    for (const Case& c : cases) {
+      SKELFORM_REQUIRE_DATA(input, c.input);
+      const GltfFile original = read_gltf(input);
+      const std::vector<BakedDeformable> deformables = deformables_for(original.document);
+      REQUIRE(!deformables.empty());
+      bake_and_check(input, deformables, validator_dir() / c.output);
     }
-  };
-  check_object(schema, extension, format::kExtensionName);
-}
+    SKELFORM_REQUIRE_DATA(simple_skin, "SimpleSkin/SimpleSkin.gltf");
+    const Json baked = read_gltf(validator_dir() / "SimpleSkin.skf.gltf").document;
+    CHECK(baked["buffers"][0]["uri"].get<std::string>().rfind("data:application/octet-stream;base64,", 0) == 0);
+  }
+
+  TEST_CASE("gltf_writer: a failed write leaves no file and an existing output untouched") {
+    const fs::path in = write_tiny_inputs("gltf_writer_atomic");
+    // A directory that does not exist cannot be written to.
+    const fs::path missing = in / "no such directory" / "out.glb";
+    CHECK(error_kind_of([&] {
+            skelform::bake::write_baked_gltf((in / "tiny.glb").string(), tiny_deformables(), missing.string());
+          }) == ErrorKind::io);
+    CHECK_FALSE(fs::exists(missing));
+
+    // An existing output, and its temporary file's name taken by a directory: the write fails
+    // (even as root) and the old output stays as it was.
+    const fs::path existing = in / "existing.glb";
+    write_bytes(existing, "previous output");
+    fs::path blocker = existing;
+    blocker += ".tmp-skelform-" + std::to_string(::getpid());
+    fs::create_directories(blocker);
+    CHECK(error_kind_of([&] {
+            skelform::bake::write_baked_gltf((in / "tiny.glb").string(), tiny_deformables(), existing.string());
+          }) == ErrorKind::io);
+    CHECK(read_bytes(existing) == "previous output");
+    fs::remove_all(blocker);
+
+    // Bad bake data is refused before anything is written.
+    std::vector<BakedDeformable> bad = tiny_deformables();
+    bad[0].binding_triangle.pop_back();
+    CHECK_THROWS_AS(skelform::bake::write_baked_gltf((in / "tiny.glb").string(), bad, existing.string()),
+                    std::invalid_argument);
+    bad = tiny_deformables();
+    bad[1].dense_vertex_count = 5;
+    CHECK_THROWS_AS(skelform::bake::write_baked_gltf((in / "tiny.glb").string(), bad, existing.string()),
+                    std::invalid_argument);
+    bad = tiny_deformables();
+    bad[0].mesh = 7;
+    CHECK_THROWS_AS(skelform::bake::write_baked_gltf((in / "tiny.glb").string(), bad, existing.string()),
+                    std::invalid_argument);
+    CHECK(read_bytes(existing) == "previous output");
+  }
+
+  TEST_CASE("gltf_writer: the input and the files it uses are never overwritten") {
+    const fs::path in = write_tiny_inputs("gltf_writer_inplace");
+    const std::string gltf = read_bytes(in / "tiny.gltf"), bin = read_bytes(in / "tiny.bin");
+    CHECK(error_kind_of([&] {
+            skelform::bake::write_baked_gltf((in / "tiny.gltf").string(), tiny_deformables(),
+                                             (in / "tiny.gltf").string());
+          }) == ErrorKind::usage);
+    // out "tiny.gltf" beside "tiny.bin" in another name: tiny.bin is the input's buffer 0.
+    CHECK(error_kind_of([&] {
+            skelform::bake::write_baked_gltf((in / "tiny.gltf").string(), tiny_deformables(),
+                                             (in / "tiny.GLTF").string());
+          }) == ErrorKind::usage);
+    CHECK(read_bytes(in / "tiny.gltf") == gltf);
+    CHECK(read_bytes(in / "tiny.bin") == bin);
+    CHECK(error_kind_of([&] {
+            skelform::bake::write_baked_gltf((in / "tiny.gltf").string(), tiny_deformables(),
+                                             (in / "tiny.obj").string());
+          }) == ErrorKind::usage);
+  }
+
+  TEST_CASE("gltf_writer: malformed input is refused with invalid_input, never a crash") {
+    const fs::path dir = skelform::test::scratch_dir("gltf_writer_malformed");
+    const TinyModel model = tiny_model();
+    Json glb_document = model.document;
+    glb_document["buffers"][0].erase("uri");
+    const std::string glb = make_glb(glb_document.dump(), model.bin);
+
+    std::vector<std::pair<std::string, std::string>> inputs = {
+        {"empty.glb", ""},
+        {"array.gltf", "[1, 2, 3]"},
+        {"number.gltf", "42"},
+        {"truncated-json.gltf", model.document.dump().substr(0, 100)},
+        {"glb-header-only.glb", glb.substr(0, 12)},
+        {"glb-truncated.glb", glb.substr(0, glb.size() / 2)},
+        {"glb-short-bin.glb", make_glb(glb_document.dump(), model.bin.substr(0, 40))},
+        {"glb-no-bin.glb", make_glb(glb_document.dump(), "")},
+        {"buffers-not-array.gltf", R"({"asset": {"version": "2.0"}, "buffers": {"uri": "x"}})"},
+        {"bad-byte-length.gltf",
+         R"({"asset": {"version": "2.0"}, "buffers": [{"uri": "tiny.bin", "byteLength": -1}]})"},
+        {"bad-base64.gltf",
+         R"({"asset": {"version": "2.0"}, "buffers": [{"uri": "data:application/octet-stream;base64,@@@@", "byteLength": 3}]})"},
+    };
+    std::string bad_length = glb;
+    const uint32_t huge = 0x7FFFFFF0;
+    std::memcpy(&bad_length[12], &huge, 4);
+    inputs.emplace_back("glb-bad-chunk-length.glb", bad_length);
+    std::string bad_version = glb;
+    bad_version[4] = 1;
+    inputs.emplace_back("glb-version-1.glb", bad_version);
+
+    for (const auto& input : inputs) {
+      const std::string& name = input.first;
+      const std::string& bytes = input.second;
+      INFO(name);
+      write_bytes(dir / name, bytes);
+      const fs::path out = dir / ("out-" + name + ".glb");
+      CHECK(error_kind_of([&] {
+              skelform::bake::write_baked_gltf((dir / name).string(), tiny_deformables(), out.string());
+            }) == ErrorKind::invalid_input);
+      CHECK_FALSE(fs::exists(out));
+      CHECK_THROWS_AS(skelform::bake::baked_glb(bytes, dir.string(), tiny_deformables()), Error);
+    }
+    CHECK(error_kind_of([&] {
+            skelform::bake::write_baked_gltf((dir / "absent.gltf").string(), tiny_deformables(),
+                                             (dir / "x.glb").string());
+          }) == ErrorKind::io);
+  }
+
+  TEST_CASE("gltf_writer: the JSON schema is valid JSON and the written extension has its required members") {
+    const fs::path schema_path = fs::path(SKELFORM_SOURCE_DIR) / "docs" / "SKELFORM_skeletal_deformation.schema.json";
+    const Json schema = Json::parse(read_bytes(schema_path));
+    REQUIRE(schema.is_object());
+    CHECK(schema.contains("$schema"));
+    CHECK(schema["title"] == format::kExtensionName);
+
+    const fs::path in = write_tiny_inputs("gltf_writer_schema");
+    const fs::path out = in / "out.glb";
+    skelform::bake::write_baked_gltf((in / "tiny.glb").string(), tiny_deformables(), out.string());
+    const Json extension = read_gltf(out).document["extensions"][format::kExtensionName];
+
+    // A hand check of the schema's "required" and property types on each object level (no
+    // JSON Schema library is available): definitions are resolved through "$defs" by name.
+    std::function<void(const Json&, const Json&, const std::string&)> check_object =
+        [&](const Json& object_schema, const Json& value, const std::string& where) {
+          INFO(where);
+          const Json* resolved = &object_schema;
+          if (resolved->contains("$ref")) {
+            const std::string ref = (*resolved)["$ref"];
+            REQUIRE(ref.rfind("#/$defs/", 0) == 0);
+            resolved = &schema["$defs"][ref.substr(8)];
+          }
+          const std::string type = resolved->value("type", "");
+          if (type == "object") {
+            REQUIRE(value.is_object());
+            for (const Json& key : resolved->value("required", Json::array()))
+              CHECK_MESSAGE(value.contains(key.get<std::string>()), key);
+            const Json properties = resolved->value("properties", Json::object());
+            for (const auto& item : value.items()) {
+              const std::string key = item.key();
+              const Json& member = item.value();
+              CHECK_MESSAGE(properties.contains(key), "member not in the schema: " << where << "." << key);
+              if (properties.contains(key)) check_object(properties[key], member, where + "." + key);
+            }
+          } else if (type == "array") {
+            REQUIRE(value.is_array());
+            CHECK(value.size() >= resolved->value("minItems", size_t(0)));
+            for (size_t i = 0; i < value.size(); ++i)
+              check_object((*resolved)["items"], value[i], where + "[" + std::to_string(i) + "]");
+          } else if (type == "integer") {
+            CHECK(value.is_number_integer());
+            if (resolved->contains("minimum")) CHECK(value.get<int64_t>() >= (*resolved)["minimum"].get<int64_t>());
+          } else {
+            FAIL("schema type not handled by this check: " << type);
+          }
+        };
+    check_object(schema, extension, format::kExtensionName);
+  }
 
 }  // TEST_SUITE

@@ -82,8 +82,8 @@ void check_rejected(const std::string& file_name, const std::vector<unsigned cha
   }
 }
 
-void check_rejected(const std::string& file_name, const std::string& text, ErrorKind kind,
-                    const std::string& substring, const LoadOptions& options = {}) {
+void check_rejected(const std::string& file_name, const std::string& text, ErrorKind kind, const std::string& substring,
+                    const LoadOptions& options = {}) {
   check_rejected(file_name, bytes_of(text), kind, substring, options);
 }
 
@@ -135,13 +135,19 @@ TEST_CASE("input: OBJ positions keep full double precision") {
 
 TEST_CASE("input: bad OBJ files are rejected with the file, the line and the problem") {
   const std::string tri = "v 0 0 0\nv 1 0 0\nv 0 1 0\n";
-  check_rejected("index_high.obj", tri + "f 1 2 4\n", ErrorKind::invalid_input, "index_high.obj:4: face index 4 out of range");
-  check_rejected("index_low.obj", tri + "f -1 -2 -4\n", ErrorKind::invalid_input, "index_low.obj:4: face index -4 out of range");
+  check_rejected("index_high.obj", tri + "f 1 2 4\n", ErrorKind::invalid_input,
+                 "index_high.obj:4: face index 4 out of range");
+  check_rejected("index_low.obj", tri + "f -1 -2 -4\n", ErrorKind::invalid_input,
+                 "index_low.obj:4: face index -4 out of range");
   check_rejected("index_zero.obj", tri + "f 0 1 2\n", ErrorKind::invalid_input, "face index 0");
-  check_rejected("nan.obj", "v 0 0 0\nv nan 0 0\nv 0 1 0\nf 1 2 3\n", ErrorKind::invalid_input, "nan.obj:2: non-finite");
-  check_rejected("inf.obj", "v 0 0 0\nv 1 0 0\nv 0 -inf 0\nf 1 2 3\n", ErrorKind::invalid_input, "inf.obj:3: non-finite");
-  check_rejected("overflow.obj", "v 0 0 1e999\nv 1 0 0\nv 0 1 0\nf 1 2 3\n", ErrorKind::invalid_input, "overflow.obj:1:");
-  check_rejected("short_vertex.obj", "v 0 0\n", ErrorKind::invalid_input, "short_vertex.obj:1: vertex has fewer than 3");
+  check_rejected("nan.obj", "v 0 0 0\nv nan 0 0\nv 0 1 0\nf 1 2 3\n", ErrorKind::invalid_input,
+                 "nan.obj:2: non-finite");
+  check_rejected("inf.obj", "v 0 0 0\nv 1 0 0\nv 0 -inf 0\nf 1 2 3\n", ErrorKind::invalid_input,
+                 "inf.obj:3: non-finite");
+  check_rejected("overflow.obj", "v 0 0 1e999\nv 1 0 0\nv 0 1 0\nf 1 2 3\n", ErrorKind::invalid_input,
+                 "overflow.obj:1:");
+  check_rejected("short_vertex.obj", "v 0 0\n", ErrorKind::invalid_input,
+                 "short_vertex.obj:1: vertex has fewer than 3");
   check_rejected("bad_number.obj", "v 0 0 x1\n", ErrorKind::invalid_input, "bad vertex coordinate 'x1'");
   check_rejected("bad_index.obj", tri + "f 1 2 three\n", ErrorKind::invalid_input, "bad face index 'three'");
   check_rejected("two_corners.obj", tri + "f 1 2\n", ErrorKind::invalid_input, "face with 2 vertices");
@@ -241,13 +247,13 @@ struct GltfParts {
   int mode = 4;
   bool skinned = true;
   bool indexed = true;
-  std::string position_accessor = "0";       // the primitive's POSITION value
-  long position_count = -1;                   // -1: positions.size() / 3
-  long position_view_offset = 0;              // bufferView 0 byteOffset
-  std::string extra_accessors;                // appended to the accessors array
-  std::string extra_views;                    // appended to the bufferViews array
-  std::vector<unsigned char> extra_bytes;     // appended to buffer 0 (after the indices)
-  std::string position_accessor_extra;        // extra members of accessor 0, e.g. sparse
+  std::string position_accessor = "0";     // the primitive's POSITION value
+  long position_count = -1;                // -1: positions.size() / 3
+  long position_view_offset = 0;           // bufferView 0 byteOffset
+  std::string extra_accessors;             // appended to the accessors array
+  std::string extra_views;                 // appended to the bufferViews array
+  std::vector<unsigned char> extra_bytes;  // appended to buffer 0 (after the indices)
+  std::string position_accessor_extra;     // extra members of accessor 0, e.g. sparse
 
   // A skinned node's primitives need JOINTS_0/WEIGHTS_0: every vertex fully on joint 0.
   // They go after everything else so the tests' extra accessor/view indices stay 2, 3, ...
@@ -287,12 +293,15 @@ struct GltfParts {
     const size_t skin_view = 2 + occurrences(extra_views, "\"buffer\"");
     std::string skin_attributes, skin_accessors, skin_views;
     if (skinned) {
-      skin_attributes = ",\"JOINTS_0\":" + std::to_string(skin_accessor) + ",\"WEIGHTS_0\":" + std::to_string(skin_accessor + 1);
-      skin_accessors = ",{\"bufferView\":" + std::to_string(skin_view) + ",\"componentType\":5123,\"type\":\"VEC4\",\"count\":" +
-                       std::to_string(vertices) + "},{\"bufferView\":" + std::to_string(skin_view + 1) +
+      skin_attributes =
+          ",\"JOINTS_0\":" + std::to_string(skin_accessor) + ",\"WEIGHTS_0\":" + std::to_string(skin_accessor + 1);
+      skin_accessors = ",{\"bufferView\":" + std::to_string(skin_view) +
+                       ",\"componentType\":5123,\"type\":\"VEC4\",\"count\":" + std::to_string(vertices) +
+                       "},{\"bufferView\":" + std::to_string(skin_view + 1) +
                        ",\"componentType\":5126,\"type\":\"VEC4\",\"count\":" + std::to_string(vertices) + "}";
-      skin_views = ",{\"buffer\":0,\"byteOffset\":" + std::to_string(skin_offset) + ",\"byteLength\":" +
-                   std::to_string(vertices * 8) + "},{\"buffer\":0,\"byteOffset\":" + std::to_string(skin_offset + vertices * 8) +
+      skin_views = ",{\"buffer\":0,\"byteOffset\":" + std::to_string(skin_offset) +
+                   ",\"byteLength\":" + std::to_string(vertices * 8) +
+                   "},{\"buffer\":0,\"byteOffset\":" + std::to_string(skin_offset + vertices * 8) +
                    ",\"byteLength\":" + std::to_string(vertices * 16) + "}";
     }
     std::string primitive = "{\"attributes\":{\"POSITION\":" + position_accessor + skin_attributes + "}";
@@ -302,8 +311,9 @@ struct GltfParts {
     j += "\"nodes\":[{\"mesh\":0" + std::string(skinned ? ",\"skin\":0" : "") + "},{\"name\":\"joint\"}],";
     if (skinned) j += "\"skins\":[{\"joints\":[1]}],";
     j += "\"meshes\":[{\"name\":\"thing\",\"primitives\":[" + primitive + "]}],";
-    j += "\"accessors\":[{\"bufferView\":0,\"componentType\":5126,\"type\":\"VEC3\",\"count\":" +
-         std::to_string(count) + position_accessor_extra + "},";
+    j +=
+        "\"accessors\":[{\"bufferView\":0,\"componentType\":5126,\"type\":\"VEC3\",\"count\":" + std::to_string(count) +
+        position_accessor_extra + "},";
     j += "{\"bufferView\":1,\"componentType\":5123,\"type\":\"SCALAR\",\"count\":" + std::to_string(indices.size()) +
          "}" + extra_accessors + skin_accessors + "],";
     j += "\"bufferViews\":[{\"buffer\":0,\"byteOffset\":" + std::to_string(position_view_offset) +
@@ -391,7 +401,8 @@ TEST_CASE("input: SimpleSkin.gltf with data-URI buffers has 10 vertices and 8 tr
 TEST_CASE("input: a generated skinned glTF loads the same as .gltf (data URI) and .glb") {
   const GltfParts parts;
   // Not structured bindings: doctest's macros capture in lambdas (clang 14 refuses bindings).
-  for (const auto& input : {std::pair{parts.gltf(), std::string(".gltf")}, std::pair{parts.glb(), std::string(".glb")}}) {
+  for (const auto& input :
+       {std::pair{parts.gltf(), std::string(".gltf")}, std::pair{parts.glb(), std::string(".glb")}}) {
     const std::vector<unsigned char>& bytes = input.first;
     const std::string& ext = input.second;
     CAPTURE(ext);
@@ -475,7 +486,8 @@ TEST_CASE("input: bad glTF files are rejected with a message naming the problem"
 
   parts = GltfParts();
   parts.position_count = 5;
-  check_rejected("accessor_past_view.gltf", parts.gltf(), ErrorKind::invalid_input, "runs past the end of bufferView 0");
+  check_rejected("accessor_past_view.gltf", parts.gltf(), ErrorKind::invalid_input,
+                 "runs past the end of bufferView 0");
 
   parts = GltfParts();
   // 48 bytes of positions starting 16 bytes before the end overrun the buffer.
@@ -544,9 +556,11 @@ TEST_CASE("input: limits: JSON nesting, influence sets and PLY row counts are re
   check_rejected("influences.gltf", many, ErrorKind::unsupported, "more than 16 JOINTS_n/WEIGHTS_n sets");
 
   // Two elements of 60 rows each in a body of 100 bytes: each alone fits, together they cannot.
-  const std::string head = "ply\nformat binary_little_endian 1.0\nelement extra 60\nproperty uchar a\n"
-                           "element vertex 60\nproperty uchar x\nproperty uchar y\nproperty uchar z\nend_header\n";
-  check_rejected("rows.ply", head + std::string(100, '\0'), ErrorKind::invalid_input, "element 'vertex' declares 60 rows");
+  const std::string head =
+      "ply\nformat binary_little_endian 1.0\nelement extra 60\nproperty uchar a\n"
+      "element vertex 60\nproperty uchar x\nproperty uchar y\nproperty uchar z\nend_header\n";
+  check_rejected("rows.ply", head + std::string(100, '\0'), ErrorKind::invalid_input,
+                 "element 'vertex' declares 60 rows");
 }
 
 TEST_CASE("input: a generated .glb cut at every length fails with an Error, never a crash") {
@@ -566,8 +580,8 @@ TEST_CASE("input: a generated .glb cut at every length fails with an Error, neve
 TEST_CASE("input: CesiumMan.glb cut at several lengths fails with an Error, never a crash") {
   SKELFORM_REQUIRE_DATA(path, "CesiumMan/CesiumMan.glb");
   const std::vector<unsigned char> whole = read_bytes(path);
-  for (size_t cut : {size_t{0}, size_t{1}, size_t{11}, size_t{12}, size_t{19}, size_t{20}, size_t{100},
-                     size_t{4000}, whole.size() / 2, whole.size() - 100, whole.size() - 1}) {
+  for (size_t cut : {size_t{0}, size_t{1}, size_t{11}, size_t{12}, size_t{19}, size_t{20}, size_t{100}, size_t{4000},
+                     whole.size() / 2, whole.size() - 100, whole.size() - 1}) {
     CAPTURE(cut);
     const std::vector<unsigned char> part(whole.begin(), whole.begin() + static_cast<std::ptrdiff_t>(cut));
     const Outcome o = outcome_of([&] { load_mesh_from_memory(part, ".glb", "CesiumMan-cut.glb"); });
@@ -584,13 +598,13 @@ namespace {
 
 // A cube with quad faces as PLY: `vertex` with x/y/z of `coordinate` type plus an ignored
 // property, `face` lists of uchar count and `index` type, plus an unrelated element after.
-std::vector<unsigned char> cube_ply(const std::string& format, const std::string& coordinate,
-                                    const std::string& index, size_t truncate_body_by = 0) {
+std::vector<unsigned char> cube_ply(const std::string& format, const std::string& coordinate, const std::string& index,
+                                    size_t truncate_body_by = 0) {
   const double corners[8][3] = {{0, 0, 0}, {1, 0, 0}, {1, 1, 0}, {0, 1, 0}, {0, 0, 1}, {1, 0, 1}, {1, 1, 1}, {0, 1, 1}};
   const int quads[6][4] = {{0, 3, 2, 1}, {4, 5, 6, 7}, {0, 1, 5, 4}, {2, 3, 7, 6}, {1, 2, 6, 5}, {0, 4, 7, 3}};
   std::string header = "ply\r\nformat " + format + " 1.0\ncomment made by the test\nelement vertex 8\n";
-  header += "property " + coordinate + " x\nproperty " + coordinate + " y\nproperty uchar red\nproperty " +
-            coordinate + " z\n";
+  header += "property " + coordinate + " x\nproperty " + coordinate + " y\nproperty uchar red\nproperty " + coordinate +
+            " z\n";
   header += "element face 6\nproperty list uchar " + index + " vertex_indices\nproperty float quality\n";
   header += "element edge 1\nproperty int vertex1\nproperty int vertex2\nend_header\n";
   std::vector<unsigned char> out = bytes_of(header);
@@ -610,14 +624,16 @@ std::vector<unsigned char> cube_ply(const std::string& format, const std::string
       for (size_t i = 0; i < size; ++i) out.push_back(b[big ? size - 1 - i : i]);
     };
     auto put_coordinate = [&](double v) {
-      if (coordinate == "double") put(&v, 8);
+      if (coordinate == "double")
+        put(&v, 8);
       else {
         const float f = static_cast<float>(v);
         put(&f, 4);
       }
     };
     auto put_index = [&](int v) {
-      if (index == "int" || index == "uint") put(&v, 4);
+      if (index == "int" || index == "uint")
+        put(&v, 4);
       else if (index == "ushort" || index == "short") {
         const uint16_t s = static_cast<uint16_t>(v);
         put(&s, 2);
@@ -677,9 +693,10 @@ TEST_CASE("input: PLY in ASCII and both binary byte orders with float or double 
     }
   }
   // The face list may also be called vertex_index, and the header may use sized type names.
-  std::string text = "ply\nformat ascii 1.0\nelement vertex 3\nproperty float32 x\nproperty float32 y\n"
-                     "property float32 z\nelement face 1\nproperty list uint8 int32 vertex_index\nend_header\n"
-                     "0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n";
+  std::string text =
+      "ply\nformat ascii 1.0\nelement vertex 3\nproperty float32 x\nproperty float32 y\n"
+      "property float32 z\nelement face 1\nproperty list uint8 int32 vertex_index\nend_header\n"
+      "0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n";
   CHECK(load_mesh_from_memory(bytes_of(text), ".ply", "named.ply").triangles.size() == 1);
 }
 
@@ -700,21 +717,26 @@ TEST_CASE("input: bad PLY files are rejected with the element and the problem") 
   }
   CHECK(rejected == whole.size());
 
-  const std::string head = "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\n"
-                           "property float z\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n";
+  const std::string head =
+      "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\n"
+      "property float z\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n";
   check_rejected("index_range.ply", head + "0 0 0\n1 0 0\n0 1 0\n3 0 1 3\n", ErrorKind::invalid_input,
                  "element 'face' 0: vertex index 3 out of range (3 vertices)");
   check_rejected("negative_index.ply", head + "0 0 0\n1 0 0\n0 1 0\n3 0 -1 2\n", ErrorKind::invalid_input,
                  "element 'face' 0: bad vertex index");
   check_rejected("nan.ply", head + "0 0 0\n1 nan 0\n0 1 0\n3 0 1 2\n", ErrorKind::invalid_input,
                  "element 'vertex' 1: non-finite coordinate");
-  check_rejected("short_ascii.ply", head + "0 0 0\n1 0 0\n0 1\n", ErrorKind::invalid_input, "file ends inside element 'vertex' 2");
-  check_rejected("no_faces.ply", "ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nproperty float y\n"
-                                 "property float z\nend_header\n0 0 0\n", ErrorKind::invalid_input, "no faces");
+  check_rejected("short_ascii.ply", head + "0 0 0\n1 0 0\n0 1\n", ErrorKind::invalid_input,
+                 "file ends inside element 'vertex' 2");
+  check_rejected("no_faces.ply",
+                 "ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nproperty float y\n"
+                 "property float z\nend_header\n0 0 0\n",
+                 ErrorKind::invalid_input, "no faces");
   check_rejected("no_end.ply", "ply\nformat ascii 1.0\nelement vertex 1\n", ErrorKind::invalid_input, "no end_header");
-  check_rejected("huge_count.ply", "ply\nformat binary_little_endian 1.0\nelement vertex 4000000000\nproperty float x\n"
-                                   "property float y\nproperty float z\nend_header\n", ErrorKind::invalid_input,
-                 "declares 4000000000 rows");
+  check_rejected("huge_count.ply",
+                 "ply\nformat binary_little_endian 1.0\nelement vertex 4000000000\nproperty float x\n"
+                 "property float y\nproperty float z\nend_header\n",
+                 ErrorKind::invalid_input, "declares 4000000000 rows");
   check_rejected("not.ply", "solid cube\nfacet normal 0 0 1\n", ErrorKind::invalid_input, "not a PLY file");
 }
 
@@ -888,9 +910,11 @@ TEST_CASE("input: gltf_access reads interleaved joints, normalized weights and m
 }
 
 TEST_CASE("input: skin influences of every skinned model are read, in range and normalised") {
-  for (const auto& model : std::vector<std::pair<const char*, size_t>>{
-           {"CesiumMan/CesiumMan.glb", 19}, {"Fox/Fox.glb", 24}, {"RiggedFigure/RiggedFigure.glb", 19},
-           {"RiggedSimple/RiggedSimple.glb", 2}, {"SimpleSkin/SimpleSkin.gltf", 2}}) {
+  for (const auto& model : std::vector<std::pair<const char*, size_t>>{{"CesiumMan/CesiumMan.glb", 19},
+                                                                       {"Fox/Fox.glb", 24},
+                                                                       {"RiggedFigure/RiggedFigure.glb", 19},
+                                                                       {"RiggedSimple/RiggedSimple.glb", 2},
+                                                                       {"SimpleSkin/SimpleSkin.gltf", 2}}) {
     const char* name = model.first;
     const size_t joint_count = model.second;
     SKELFORM_REQUIRE_DATA(path, name);

@@ -78,7 +78,8 @@ TEST_CASE("metrics: the hierarchical winding number stays within 2e-3 of the exa
   const TriangleMesh sphere = make_uv_sphere(1.0, 48, 24);
   hemisphere.positions = sphere.positions;
   for (const Triangle& t : sphere.triangles)
-    if (sphere.positions[t[0]].z + sphere.positions[t[1]].z + sphere.positions[t[2]].z > 0) hemisphere.triangles.push_back(t);
+    if (sphere.positions[t[0]].z + sphere.positions[t[1]].z + sphere.positions[t[2]].z > 0)
+      hemisphere.triangles.push_back(t);
   for (const TriangleMesh& mesh : {make_test_character(), hemisphere}) {
     Vec3 lo(std::numeric_limits<double>::max()), hi(std::numeric_limits<double>::lowest());
     for (const Vec3& p : mesh.positions) lo = glm::min(lo, p), hi = glm::max(hi, p);

@@ -14,8 +14,8 @@
 #include <vector>
 
 #if __has_include("gltf_animation.h")
-#include "gltf_animation.h"
-#define SKELFORM_HAVE_GLTF_ANIMATION 1
+#  include "gltf_animation.h"
+#  define SKELFORM_HAVE_GLTF_ANIMATION 1
 #endif
 
 namespace {
@@ -111,7 +111,8 @@ TEST_CASE("procedural rig: elbows and knees are shared by their two bones and li
           CHECK(weight_of(s, a) > 0.25f);
           CHECK(weight_of(s, b) > 0.25f);
         }
-        if (std::abs(glm::dot(p - mid, axis)) < 0.05 * glm::length(bone.tail - bone.head) && radial < 1.6 * bone.tail_radius) {
+        if (std::abs(glm::dot(p - mid, axis)) < 0.05 * glm::length(bone.tail - bone.head) &&
+            radial < 1.6 * bone.tail_radius) {
           ++at_middle;  // mid-bone: rigid
           CHECK(weight_of(s, b) > 0.95f);
         }
@@ -156,29 +157,33 @@ TEST_CASE("procedural rig: the animations reach their defining poses and keep th
   // The walk loops: its last key is its first.
   const std::vector<glm::dmat4> first = joint_world_transforms(c.joints, walk.poses.front());
   const std::vector<glm::dmat4> last = joint_world_transforms(c.joints, walk.poses.back());
-  for (size_t j = 0; j < c.joints.size(); ++j) CHECK(glm::length(position_of(first, int(j)) - position_of(last, int(j))) < 1e-9);
+  for (size_t j = 0; j < c.joints.size(); ++j)
+    CHECK(glm::length(position_of(first, int(j)) - position_of(last, int(j))) < 1e-9);
   // The stance ankle stays on its rest height.
   const int foot_l = joint_index("foot.L"), foot_r = joint_index("foot.R");
   for (const RigPose& pose : walk.poses) {
     const auto world = joint_world_transforms(c.joints, pose);
-    CHECK(std::min(position_of(world, foot_l).y, position_of(world, foot_r).y) == doctest::Approx(c.joints[size_t(foot_l)].head.y));
+    CHECK(std::min(position_of(world, foot_l).y, position_of(world, foot_r).y) ==
+          doctest::Approx(c.joints[size_t(foot_l)].head.y));
   }
   // The bend starts and ends at rest, and at its middle the knees and elbows are at 120
   // degrees with the ankles where they were.
   for (const RigPose* pose : {&bend.poses.front(), &bend.poses.back()}) {
     const auto world = joint_world_transforms(c.joints, *pose);
-    for (size_t j = 0; j < c.joints.size(); ++j) CHECK(glm::length(position_of(world, int(j)) - c.joints[j].head) < 1e-9);
+    for (size_t j = 0; j < c.joints.size(); ++j)
+      CHECK(glm::length(position_of(world, int(j)) - c.joints[j].head) < 1e-9);
   }
   const auto deep = joint_world_transforms(c.joints, pose_at(bend, 1.5));
   for (const char* side : {".L", ".R"}) {
     INFO(std::string(side));
     // The thigh and shin bones are about 5 degrees apart at rest (the knee sits forward of
     // the hip-ankle line), so the 120-degree knee hinge shows as 120-125 between them.
-    const double knee = bend_degrees(deep, joint_index(std::string("upper_leg") + side), joint_index(std::string("lower_leg") + side));
+    const double knee =
+        bend_degrees(deep, joint_index(std::string("upper_leg") + side), joint_index(std::string("lower_leg") + side));
     CHECK(knee > 118.0);
     CHECK(knee < 127.0);
-    CHECK(bend_degrees(deep, joint_index(std::string("upper_arm") + side), joint_index(std::string("lower_arm") + side)) ==
-          doctest::Approx(120.0).epsilon(0.01));
+    CHECK(bend_degrees(deep, joint_index(std::string("upper_arm") + side),
+                       joint_index(std::string("lower_arm") + side)) == doctest::Approx(120.0).epsilon(0.01));
     const int foot = joint_index(std::string("foot") + side);
     CHECK(glm::length(position_of(deep, foot) - c.joints[size_t(foot)].head) < 1e-9);
   }
@@ -199,7 +204,8 @@ TEST_CASE("procedural rig: the GLB reads back as the rig, its bind pose is the r
   const RiggedCharacter& c = character();
   const std::string glb = rigged_character_glb(c);
   CHECK(glb == rigged_character_glb(make_rigged_character()));
-  const InputMesh input = load_mesh_from_memory(std::vector<unsigned char>(glb.begin(), glb.end()), ".glb", "character.glb");
+  const InputMesh input =
+      load_mesh_from_memory(std::vector<unsigned char>(glb.begin(), glb.end()), ".glb", "character.glb");
   REQUIRE(input.positions.size() == c.mesh.positions.size());
   REQUIRE(input.primitives.size() == 1);
   CHECK(input.primitives[0].skin == 0);

@@ -40,8 +40,8 @@ void check_character(const CharacterOptions& options) {
   const TriangleMesh mesh = skelform::bake::make_test_character(options);
   const MeshReport r = check_closed_sphere_like(mesh);
   const auto box = skelform::bake::bounds_of(mesh.positions);
-  INFO("bounds " << box.min.x << " " << box.min.y << " " << box.min.z << " .. " << box.max.x << " "
-                 << box.max.y << " " << box.max.z);
+  INFO("bounds " << box.min.x << " " << box.min.y << " " << box.min.z << " .. " << box.max.x << " " << box.max.y << " "
+                 << box.max.z);
   const double h = options.height;
   CHECK(std::abs((box.max.y - box.min.y) - h) <= 0.02 * h);
   CHECK(std::abs(box.min.y) <= 0.02 * h);
@@ -172,8 +172,8 @@ TEST_CASE("test character: closed genus-0 single surface at the default options"
   const auto start = std::chrono::steady_clock::now();
   const TriangleMesh mesh = skelform::bake::make_test_character(options);
   const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-  MESSAGE("test character: " << mesh.positions.size() << " vertices, " << mesh.triangles.size()
-                             << " triangles in " << seconds << " s");
+  MESSAGE("test character: " << mesh.positions.size() << " vertices, " << mesh.triangles.size() << " triangles in "
+                             << seconds << " s");
   CHECK(mesh.triangles.size() >= 3000);
   CHECK(mesh.triangles.size() <= 20000);
   check_character(options);
@@ -201,7 +201,8 @@ TEST_CASE("test character: closed genus-0 single surface at the default options"
         const double t = std::clamp(glm::dot(p - j.head, ab) / glm::dot(ab, ab), 0.0, 1.0);
         // The lerp-radius tube around the segment, which over-estimates the hull's distance
         // near tapered ends by far less than the tolerance used here.
-        nearest = std::min(nearest, glm::length(p - (j.head + t * ab)) - (j.head_radius + t * (j.tail_radius - j.head_radius)));
+        nearest = std::min(nearest,
+                           glm::length(p - (j.head + t * ab)) - (j.head_radius + t * (j.tail_radius - j.head_radius)));
       }
       REQUIRE(nearest > -0.01 * blend);
       REQUIRE(nearest < 0.35 * blend);
@@ -247,8 +248,8 @@ TEST_CASE("test character: rig description") {
   }
   CHECK(names.size() == joints.size());
   for (const char* name : {"spine", "chest", "neck", "head", "shoulder.L", "upper_arm.L", "lower_arm.L", "hand.L",
-                           "upper_leg.L", "lower_leg.L", "foot.L", "shoulder.R", "upper_arm.R", "lower_arm.R",
-                           "hand.R", "upper_leg.R", "lower_leg.R", "foot.R"})
+                           "upper_leg.L", "lower_leg.L", "foot.L", "shoulder.R", "upper_arm.R", "lower_arm.R", "hand.R",
+                           "upper_leg.R", "lower_leg.R", "foot.R"})
     CHECK(names.count(name) == 1);
 
   auto find = [&](const std::string& name) -> const CharacterJoint& {

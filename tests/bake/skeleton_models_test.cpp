@@ -19,8 +19,8 @@ using namespace skelform::bake;
 namespace {
 
 struct SkeletonQuality {
-  double inside = 0.0;              // fraction of skeletal vertices with winding number > 0.5
-  double medial_median = 0.0;       // median over vertices of dist(S, input surface) / d
+  double inside = 0.0;                // fraction of skeletal vertices with winding number > 0.5
+  double medial_median = 0.0;         // median over vertices of dist(S, input surface) / d
   double medial_radius_median = 0.0;  // median d / bounding-box diagonal
   size_t vertices = 0;
   size_t without_candidates = 0;
@@ -84,9 +84,7 @@ void check_flow_improves(const std::string& relative) {
 
 TEST_CASE("skeleton models: spot is >= 99.5 % inside and medial") { check_dense_model("spot/spot.obj"); }
 
-TEST_CASE("skeleton models: hand_closed is >= 99.5 % inside and medial") {
-  check_dense_model("hand/hand_closed.obj");
-}
+TEST_CASE("skeleton models: hand_closed is >= 99.5 % inside and medial") { check_dense_model("hand/hand_closed.obj"); }
 
 TEST_CASE("skeleton models: CesiumMan (welded) is >= 99.5 % inside and medial") {
   check_dense_model("CesiumMan/CesiumMan.glb");

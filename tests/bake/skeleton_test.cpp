@@ -38,7 +38,8 @@ void check_skeleton_invariants(const TriangleMesh& mesh, const SkeletalMesh& ske
       ++bad;
     // Unit, or zero for a vertex without a non-degenerate incident triangle (then S = M).
     const double normal_length = glm::length(skeleton.normals[v]);
-    if (std::abs(normal_length - 1.0) > 1e-12 && !(normal_length == 0.0 && skeleton.skeletal_positions[v] == mesh.positions[v]))
+    if (std::abs(normal_length - 1.0) > 1e-12 &&
+        !(normal_length == 0.0 && skeleton.skeletal_positions[v] == mesh.positions[v]))
       ++bad;
     if (skeleton.voronoi_vertex_count[v] == 0) ++without_candidates;
   }
@@ -65,9 +66,8 @@ void check_capsule(bool with_tangent_flow) {
     worst_radius_error = std::max(worst_radius_error, std::abs(skeleton.medial_radius[v] - radius));
   }
   MESSAGE("capsule" << std::string(with_tangent_flow ? " after tangent flow" : "") << ": " << cylinder_vertices
-                    << " cylinder vertices, max distance of S to the axis " << worst_axis_distance
-                    << ", max |d - r| " << worst_radius_error << ", without candidates "
-                    << skeleton.vertices_without_candidates);
+                    << " cylinder vertices, max distance of S to the axis " << worst_axis_distance << ", max |d - r| "
+                    << worst_radius_error << ", without candidates " << skeleton.vertices_without_candidates);
   CHECK(cylinder_vertices > 500);
   CHECK(worst_axis_distance <= 0.15 * radius);
   CHECK(worst_radius_error <= 0.15 * radius);
@@ -80,7 +80,8 @@ void check_sphere(TriangleMesh sphere, double radius, const std::string& name, b
   const SkeletalMesh skeleton = extract_skeleton(sphere);
   check_skeleton_invariants(sphere, skeleton);
   double worst_centre_distance = 0.0;
-  for (const Vec3& s : skeleton.skeletal_positions) worst_centre_distance = std::max(worst_centre_distance, glm::length(s));
+  for (const Vec3& s : skeleton.skeletal_positions)
+    worst_centre_distance = std::max(worst_centre_distance, glm::length(s));
   MESSAGE(name << std::string(with_tangent_flow ? " after tangent flow" : "") << ": max distance of S to the centre "
                << worst_centre_distance << " (R = " << radius << "), without candidates "
                << skeleton.vertices_without_candidates);
@@ -143,7 +144,8 @@ TEST_CASE("skeleton: a scaled and translated shape gives the scaled and translat
   const SkeletalMesh transformed = extract_skeleton(moved);
   double worst = 0.0;
   for (size_t v = 0; v < capsule.positions.size(); ++v) {
-    worst = std::max(worst, glm::length(transformed.skeletal_positions[v] - (3.0 * reference.skeletal_positions[v] + offset)));
+    worst = std::max(worst,
+                     glm::length(transformed.skeletal_positions[v] - (3.0 * reference.skeletal_positions[v] + offset)));
     CHECK(transformed.medial_radius[v] == doctest::Approx(3.0 * reference.medial_radius[v]).epsilon(1e-6));
   }
   CHECK(worst < 1e-6 * 3.0 * bounds_of(capsule.positions).diagonal());

@@ -57,8 +57,7 @@ TriangleMesh reference_loop_step(const TriangleMesh& mesh) {
   }
   for (const Triangle& t : mesh.triangles) {
     uint32_t e[3];
-    for (int i = 0; i < 3; ++i)
-      e[i] = edge_vertex[{std::min(t[i], t[(i + 1) % 3]), std::max(t[i], t[(i + 1) % 3])}];
+    for (int i = 0; i < 3; ++i) e[i] = edge_vertex[{std::min(t[i], t[(i + 1) % 3]), std::max(t[i], t[(i + 1) % 3])}];
     out.triangles.push_back({t[0], e[0], e[2]});
     out.triangles.push_back({t[1], e[1], e[0]});
     out.triangles.push_back({t[2], e[2], e[1]});
@@ -85,8 +84,8 @@ void check_well_formed(const SubdivisionStencils& stencils, size_t control_verti
   CHECK(stencils.indices.size() == stencils.weights.size());
   CHECK(stencils.control_vertex_count == control_vertices);
   CHECK(std::is_sorted(stencils.offsets.begin(), stencils.offsets.end()));
-  CHECK(std::all_of(stencils.indices.begin(), stencils.indices.end(),
-                    [&](uint32_t i) { return i < control_vertices; }));
+  CHECK(
+      std::all_of(stencils.indices.begin(), stencils.indices.end(), [&](uint32_t i) { return i < control_vertices; }));
   CHECK(std::all_of(stencils.refined_triangles.begin(), stencils.refined_triangles.end(), [&](const Triangle& t) {
     return t[0] < stencils.refined_vertex_count() && t[1] < stencils.refined_vertex_count() &&
            t[2] < stencils.refined_vertex_count();
@@ -202,8 +201,8 @@ TEST_CASE("Loop stencils of an open capsule keep the open rim on its plane (boun
 TEST_CASE("Loop stencils of non-manifold control meshes either work or throw Error, never crash") {
   // Three triangles around one edge (a "book"), plus a bowtie vertex shared by two fans.
   TriangleMesh book;
-  book.positions = {Vec3(0, 0, 0), Vec3(1, 0, 0), Vec3(0.5, 1, 0), Vec3(0.5, -1, 0), Vec3(0.5, 0, 1),
-                    Vec3(2, 1, 0), Vec3(2, -1, 0)};
+  book.positions = {Vec3(0, 0, 0),   Vec3(1, 0, 0), Vec3(0.5, 1, 0), Vec3(0.5, -1, 0),
+                    Vec3(0.5, 0, 1), Vec3(2, 1, 0), Vec3(2, -1, 0)};
   book.triangles = {{0, 1, 2}, {1, 0, 3}, {0, 1, 4}, {1, 5, 6}};
   TriangleMesh tetra_pair = make_icosphere(1.0, 0);
   // Glue a second icosahedron at vertex 0 of the first one (non-manifold vertex).
@@ -257,7 +256,7 @@ TEST_CASE("choose_subdivision_level picks the level whose triangle count is clos
   CHECK(choose_subdivision_level(4000, 4000) == 0);
   CHECK(choose_subdivision_level(4000, 100000) == 2);  // 64K is closer than 256K in log scale
   CHECK(choose_subdivision_level(4000, 3000) == 0);
-  CHECK(choose_subdivision_level(4000, 8000) == 0);    // a tie goes to the cheaper level
+  CHECK(choose_subdivision_level(4000, 8000) == 0);      // a tie goes to the cheaper level
   CHECK(choose_subdivision_level(100, 100000000) == 4);  // capped
   CHECK(choose_subdivision_level(0, 1000) == 0);
   CHECK(choose_subdivision_level(1000, 0) == 0);
@@ -279,7 +278,8 @@ TEST_CASE("refined_normals: the control mesh's normal sums refined by the stenci
     REQUIRE(normals.size() == refined.size());
     double worst_angle = 0.0, worst_length = 0.0;
     for (size_t v = 0; v < refined.size(); ++v) {
-      const double cosine = glm::dot(glm::normalize(Vec3(refined[v])), Vec3(normals[v])) / glm::length(Vec3(normals[v]));
+      const double cosine =
+          glm::dot(glm::normalize(Vec3(refined[v])), Vec3(normals[v])) / glm::length(Vec3(normals[v]));
       worst_angle = std::max(worst_angle, std::acos(std::min(1.0, cosine)) * 180.0 / kPi);
       worst_length = std::max(worst_length, std::fabs(glm::length(Vec3(normals[v])) - 1.0));
     }

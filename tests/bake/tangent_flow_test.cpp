@@ -48,9 +48,8 @@ double capsule_distance(const Vec3& p, double radius, double cylinder_length) {
 }
 
 bool all_finite(const TriangleMesh& mesh) {
-  return std::all_of(mesh.positions.begin(), mesh.positions.end(), [](const Vec3& p) {
-    return std::isfinite(p.x) && std::isfinite(p.y) && std::isfinite(p.z);
-  });
+  return std::all_of(mesh.positions.begin(), mesh.positions.end(),
+                     [](const Vec3& p) { return std::isfinite(p.x) && std::isfinite(p.y) && std::isfinite(p.z); });
 }
 
 }  // namespace
@@ -101,8 +100,8 @@ TEST_CASE("tangent flow: improves the aspect ratios of a deliberately badly tria
   const QualityStats after = quality_stats(sphere);
   double sphere_error = 0.0;
   for (const Vec3& p : sphere.positions) sphere_error = std::max(sphere_error, std::abs(glm::length(p) - radius));
-  MESSAGE("jittered icosphere quality: min " << before.min << " -> " << after.min << ", mean " << before.mean
-                                             << " -> " << after.mean << "; max radial error " << sphere_error);
+  MESSAGE("jittered icosphere quality: min " << before.min << " -> " << after.min << ", mean " << before.mean << " -> "
+                                             << after.mean << "; max radial error " << sphere_error);
   CHECK(after.min > before.min * 1.5);
   CHECK(after.mean > before.mean + 0.02);
   // The chord sag of this mesh (edges about 0.15 R) is about 3e-3 R: staying within 1e-2 R is
@@ -158,11 +157,11 @@ TEST_CASE("tangent flow: border vertices of an open mesh stay fixed, interior on
 TEST_CASE("tangent flow: degenerate triangles and isolated vertices never give NaN") {
   TriangleMesh mesh = make_icosphere(1.0, 2);
   const uint32_t a = 0, b = 1;
-  mesh.triangles.push_back({a, a, b});                  // repeated corner
-  mesh.positions.push_back(mesh.positions[5]);          // a coincident copy of vertex 5 ...
+  mesh.triangles.push_back({a, a, b});          // repeated corner
+  mesh.positions.push_back(mesh.positions[5]);  // a coincident copy of vertex 5 ...
   const uint32_t copy = static_cast<uint32_t>(mesh.positions.size() - 1);
-  mesh.triangles.push_back({5, copy, 6});               // ... in a zero-area triangle
-  mesh.positions.push_back({3.0, 3.0, 3.0});            // isolated
+  mesh.triangles.push_back({5, copy, 6});     // ... in a zero-area triangle
+  mesh.positions.push_back({3.0, 3.0, 3.0});  // isolated
   apply_tangent_flow(mesh);
   CHECK(all_finite(mesh));
   CHECK(mesh.positions.back() == Vec3(3.0, 3.0, 3.0));

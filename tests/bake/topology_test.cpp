@@ -58,7 +58,8 @@ TEST_CASE("topology: interior vertices of an open fan are not on the border; non
   // A hexagonal fan around vertex 0: 0 is interior, the rim is border.
   TriangleMesh fan;
   fan.positions.push_back({0, 0, 0});
-  for (int k = 0; k < 6; ++k) fan.positions.push_back({std::cos(k * 1.0471975511965976), std::sin(k * 1.0471975511965976), 0});
+  for (int k = 0; k < 6; ++k)
+    fan.positions.push_back({std::cos(k * 1.0471975511965976), std::sin(k * 1.0471975511965976), 0});
   for (uint32_t k = 0; k < 6; ++k) fan.triangles.push_back({0, 1 + k, 1 + (k + 1) % 6});
   VertexAdjacency adjacency = build_adjacency(fan);
   CHECK_FALSE(adjacency.on_border[0]);

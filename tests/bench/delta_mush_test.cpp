@@ -53,67 +53,67 @@ Tube make_tube(int rings = 8, int segments = 12) {
 }  // namespace
 
 TEST_SUITE("delta_mush") {
-
-TEST_CASE("the rest pose reproduces the rest mesh, seams included") {
-  const Tube tube = make_tube();
-  DeltaMush mush(tube.positions, tube.triangles, tube.joints, tube.weights, 4);
-  CHECK(mush.vertex_count() == tube.positions.size() / 3);
-  CHECK(mush.welded_vertex_count() < mush.vertex_count());  // the seam was welded
-  const float identity[32] = {1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1,
-                              1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1};
-  std::vector<float> out(tube.positions.size());
-  mush.deform(identity, 2, out.data());
-  double worst = 0;
-  for (size_t i = 0; i < out.size(); ++i) worst = std::fmax(worst, std::fabs(out[i] - tube.positions[i]));
-  CHECK(worst < 1e-5);
-}
-
-TEST_CASE("a rigid motion of the whole skeleton moves the result rigidly") {
-  const Tube tube = make_tube();
-  DeltaMush mush(tube.positions, tube.triangles, tube.joints, tube.weights, 4);
-  // 30 degrees about z, then a translation, on both joints.
-  const float c = static_cast<float>(std::cos(0.5235987755982988)), s = static_cast<float>(std::sin(0.5235987755982988));
-  const float m[16] = {c, s, 0, 0, -s, c, 0, 0, 0, 0, 1, 0, 2, -1, 3, 1};
-  float matrices[32];
-  for (int i = 0; i < 32; ++i) matrices[i] = m[i % 16];
-  std::vector<float> out(tube.positions.size());
-  mush.deform(matrices, 2, out.data());
-  double worst = 0;
-  for (size_t v = 0; v < out.size() / 3; ++v) {
-    const float* p = &tube.positions[3 * v];
-    const float expected[3] = {c * p[0] - s * p[1] + 2, s * p[0] + c * p[1] - 1, p[2] + 3};
-    for (int k = 0; k < 3; ++k) worst = std::fmax(worst, std::fabs(out[3 * v + k] - expected[k]));
+  TEST_CASE("the rest pose reproduces the rest mesh, seams included") {
+    const Tube tube = make_tube();
+    DeltaMush mush(tube.positions, tube.triangles, tube.joints, tube.weights, 4);
+    CHECK(mush.vertex_count() == tube.positions.size() / 3);
+    CHECK(mush.welded_vertex_count() < mush.vertex_count());  // the seam was welded
+    const float identity[32] = {1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1,
+                                1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1};
+    std::vector<float> out(tube.positions.size());
+    mush.deform(identity, 2, out.data());
+    double worst = 0;
+    for (size_t i = 0; i < out.size(); ++i) worst = std::fmax(worst, std::fabs(out[i] - tube.positions[i]));
+    CHECK(worst < 1e-5);
   }
-  CHECK(worst < 1e-4);
-}
 
-TEST_CASE("a bend differs from LBS only by the smoothed correction, and stays finite") {
-  const Tube tube = make_tube();
-  DeltaMush mush(tube.positions, tube.triangles, tube.joints, tube.weights, 4);
-  // Joint 1 turns 60 degrees about z around (3.5, 0, 0).
-  const double angle = 1.0471975511965976;
-  const float c = static_cast<float>(std::cos(angle)), s = static_cast<float>(std::sin(angle));
-  const float px = 3.5f;
-  const float matrices[32] = {1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1,
-                              c, s, 0, 0, -s, c, 0, 0, 0, 0, 1, 0, px - c * px, -s * px, 0, 1};
-  std::vector<float> out(tube.positions.size());
-  mush.deform(matrices, 2, out.data());
-  bool finite = true;
-  for (float v : out) finite = finite && std::isfinite(v);
-  CHECK(finite);
-  // The far cap follows joint 1 (fully weighted there, smoothing keeps it near).
-  const size_t end = tube.positions.size() / 3 - 1;
-  const float* p = &tube.positions[3 * end];
-  const double x = c * (p[0] - px) - s * p[1] + px, y = s * (p[0] - px) + c * p[1];
-  CHECK(std::hypot(out[3 * end] - x, out[3 * end + 1] - y) < 0.5);
-}
+  TEST_CASE("a rigid motion of the whole skeleton moves the result rigidly") {
+    const Tube tube = make_tube();
+    DeltaMush mush(tube.positions, tube.triangles, tube.joints, tube.weights, 4);
+    // 30 degrees about z, then a translation, on both joints.
+    const float c = static_cast<float>(std::cos(0.5235987755982988)),
+                s = static_cast<float>(std::sin(0.5235987755982988));
+    const float m[16] = {c, s, 0, 0, -s, c, 0, 0, 0, 0, 1, 0, 2, -1, 3, 1};
+    float matrices[32];
+    for (int i = 0; i < 32; ++i) matrices[i] = m[i % 16];
+    std::vector<float> out(tube.positions.size());
+    mush.deform(matrices, 2, out.data());
+    double worst = 0;
+    for (size_t v = 0; v < out.size() / 3; ++v) {
+      const float* p = &tube.positions[3 * v];
+      const float expected[3] = {c * p[0] - s * p[1] + 2, s * p[0] + c * p[1] - 1, p[2] + 3};
+      for (int k = 0; k < 3; ++k) worst = std::fmax(worst, std::fabs(out[3 * v + k] - expected[k]));
+    }
+    CHECK(worst < 1e-4);
+  }
 
-TEST_CASE("inconsistent input is refused") {
-  const Tube tube = make_tube();
-  std::vector<uint32_t> bad = tube.triangles;
-  bad[0] = 100000;
-  CHECK_THROWS_AS(DeltaMush(tube.positions, bad, tube.joints, tube.weights, 4), std::invalid_argument);
-  CHECK_THROWS_AS(DeltaMush(tube.positions, tube.triangles, tube.joints, tube.weights, 3), std::invalid_argument);
-}
+  TEST_CASE("a bend differs from LBS only by the smoothed correction, and stays finite") {
+    const Tube tube = make_tube();
+    DeltaMush mush(tube.positions, tube.triangles, tube.joints, tube.weights, 4);
+    // Joint 1 turns 60 degrees about z around (3.5, 0, 0).
+    const double angle = 1.0471975511965976;
+    const float c = static_cast<float>(std::cos(angle)), s = static_cast<float>(std::sin(angle));
+    const float px = 3.5f;
+    const float matrices[32] = {1, 0, 0, 0, 0,  1, 0, 0, 0, 0, 1, 0, 0,           0,       0, 1,
+                                c, s, 0, 0, -s, c, 0, 0, 0, 0, 1, 0, px - c * px, -s * px, 0, 1};
+    std::vector<float> out(tube.positions.size());
+    mush.deform(matrices, 2, out.data());
+    bool finite = true;
+    for (float v : out) finite = finite && std::isfinite(v);
+    CHECK(finite);
+    // The far cap follows joint 1 (fully weighted there, smoothing keeps it near).
+    const size_t end = tube.positions.size() / 3 - 1;
+    const float* p = &tube.positions[3 * end];
+    const double x = c * (p[0] - px) - s * p[1] + px, y = s * (p[0] - px) + c * p[1];
+    CHECK(std::hypot(out[3 * end] - x, out[3 * end + 1] - y) < 0.5);
+  }
+
+  TEST_CASE("inconsistent input is refused") {
+    const Tube tube = make_tube();
+    std::vector<uint32_t> bad = tube.triangles;
+    bad[0] = 100000;
+    CHECK_THROWS_AS(DeltaMush(tube.positions, bad, tube.joints, tube.weights, 4), std::invalid_argument);
+    CHECK_THROWS_AS(DeltaMush(tube.positions, tube.triangles, tube.joints, tube.weights, 3), std::invalid_argument);
+  }
 
 }  // TEST_SUITE

@@ -54,8 +54,7 @@ void exercise_deformable(const sf_asset* asset, uint32_t deformable) {
   for (size_t j = 0; j < info.joint_count; ++j)
     for (size_t d = 0; d < 4; ++d) matrices[j * 16 + d * 5] = 1.0f;
   // Rest pose: identity joint matrices (an unskinned deformable has no skin input).
-  if (info.joint_count > 0)
-    sf_instance_set_joint_matrices(instance, matrices.data(), info.joint_count, 0);
+  if (info.joint_count > 0) sf_instance_set_joint_matrices(instance, matrices.data(), info.joint_count, 0);
   evaluate_all_methods(instance, asset, deformable, info);
 
   if (info.joint_count >= 2) {

@@ -24,8 +24,7 @@ void check_mesh(const skelform::bake::InputMesh& mesh) {
   for (const auto& p : mesh.positions)
     require(std::isfinite(p.x) && std::isfinite(p.y) && std::isfinite(p.z), "a loader returned a non-finite position");
   for (const auto& t : mesh.triangles)
-    for (int k = 0; k < 3; ++k)
-      require(size_t(t[k]) < n, "a loader returned a triangle index out of range");
+    for (int k = 0; k < 3; ++k) require(size_t(t[k]) < n, "a loader returned a triangle index out of range");
   require(mesh.joint_sets.size() == mesh.weight_sets.size(), "JOINTS_n and WEIGHTS_n set counts differ");
   require(mesh.joint_sets.size() <= skelform::bake::kMaxInfluenceSets, "more influence sets than the limit");
   for (size_t s = 0; s < mesh.joint_sets.size(); ++s) {
@@ -37,7 +36,8 @@ void check_mesh(const skelform::bake::InputMesh& mesh) {
   require(mesh.skelform_weight_override.empty() || mesh.skelform_weight_override.size() == n,
           "the skelform weight override does not cover every vertex");
   for (const auto& p : mesh.primitives) {
-    require(p.first_vertex <= n && p.vertex_count <= n - p.first_vertex, "a primitive's vertex range is outside the mesh");
+    require(p.first_vertex <= n && p.vertex_count <= n - p.first_vertex,
+            "a primitive's vertex range is outside the mesh");
     require(p.first_triangle <= mesh.triangles.size() && p.triangle_count <= mesh.triangles.size() - p.first_triangle,
             "a primitive's triangle range is outside the mesh");
   }

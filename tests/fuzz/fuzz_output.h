@@ -18,7 +18,7 @@ namespace skelform::fuzz {
 inline constexpr size_t kFloatsPerVertex = 3 + 3 + 4;
 
 inline void write_primitives(sf_instance* instance, const sf_asset* asset, uint32_t deformable,
-                      const sf_deformable_info& info) {
+                             const sf_deformable_info& info) {
   for (uint32_t p = 0; p < info.primitive_count; ++p) {
     sf_primitive_info primitive{};
     require(sf_asset_primitive_info(asset, deformable, p, &primitive) == SF_OK,

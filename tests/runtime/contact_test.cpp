@@ -37,23 +37,23 @@ struct Scene {
 
   explicit Scene(float tip, bool duplicate_tip = false) {
     const glm::vec3 c(0.5f, 0.5f, 1.5f);
-    positions = {glm::vec3(c.x, c.y, tip),        c + glm::vec3(0.5f, 0, 0), c + glm::vec3(0, 0.5f, 0),
-                 c + glm::vec3(-0.5f, 0, 0),      c + glm::vec3(0, -0.5f, 0), c + glm::vec3(0, 0, 0.5f)};
+    positions = {glm::vec3(c.x, c.y, tip),   c + glm::vec3(0.5f, 0, 0),  c + glm::vec3(0, 0.5f, 0),
+                 c + glm::vec3(-0.5f, 0, 0), c + glm::vec3(0, -0.5f, 0), c + glm::vec3(0, 0, 0.5f)};
     const uint32_t tip_copy = duplicate_tip ? 6u : 0u;
     if (duplicate_tip) positions.push_back(positions[0]);
     // Lower half (around the tip), then upper half (around vertex 5), outward.
     const uint32_t octahedron[] = {0, 2, 1, tip_copy, 3, 2, tip_copy, 4, 3, 0, 1, 4,
-                                   5, 1, 2, 5, 2, 3, 5, 3, 4, 5, 4, 1};
+                                   5, 1, 2, 5,        2, 3, 5,        3, 4, 5, 4, 1};
     triangles.assign(std::begin(octahedron), std::end(octahedron));
     const uint32_t base = uint32_t(positions.size());
     for (int i = 0; i < 8; ++i) positions.emplace_back(float(i & 1), float((i >> 1) & 1), float((i >> 2) & 1));
     // Cube faces, outward: corners indexed by bits (x, y, z).
-    const uint32_t cube[] = {0, 2, 3, 0, 3, 1,  // z = 0
-                             4, 5, 7, 4, 7, 6,  // z = 1
-                             0, 1, 5, 0, 5, 4,  // y = 0
-                             2, 6, 7, 2, 7, 3,  // y = 1
-                             0, 4, 6, 0, 6, 2,  // x = 0
-                             1, 3, 7, 1, 7, 5}; // x = 1
+    const uint32_t cube[] = {0, 2, 3, 0, 3, 1,   // z = 0
+                             4, 5, 7, 4, 7, 6,   // z = 1
+                             0, 1, 5, 0, 5, 4,   // y = 0
+                             2, 6, 7, 2, 7, 3,   // y = 1
+                             0, 4, 6, 0, 6, 2,   // x = 0
+                             1, 3, 7, 1, 7, 5};  // x = 1
     for (uint32_t i : cube) triangles.push_back(base + i);
   }
 
@@ -96,9 +96,12 @@ struct Pass {
   ContactWorkspace workspace;
   explicit Pass(const Scene& scene)
       : rest(rest_of(scene)),
-        mesh(build_contact_mesh(rest.data(), uint32_t(rest.size()), scene.triangles.data(), scene.triangles.size() / 3, {})),
+        mesh(build_contact_mesh(rest.data(), uint32_t(rest.size()), scene.triangles.data(), scene.triangles.size() / 3,
+                                {})),
         workspace(make_contact_workspace(mesh, {})) {}
-  ContactStats run(std::vector<glm::vec3>& x) { return resolve_contacts(mesh, 1.0f, x.data(), uint32_t(x.size()), workspace); }
+  ContactStats run(std::vector<glm::vec3>& x) {
+    return resolve_contacts(mesh, 1.0f, x.data(), uint32_t(x.size()), workspace);
+  }
 };
 
 }  // namespace
@@ -198,8 +201,8 @@ TEST_CASE("contact: pairs that intersect at rest are the modeller's and stay") {
   // The tip 0.1 inside the cube both at rest and now: nothing to resolve.
   const Scene scene(0.9f);
   std::vector<glm::vec3> x = scene.positions;
-  ContactMesh mesh = build_contact_mesh(scene.positions.data(), uint32_t(scene.positions.size()), scene.triangles.data(),
-                                        scene.triangles.size() / 3, {});
+  ContactMesh mesh = build_contact_mesh(scene.positions.data(), uint32_t(scene.positions.size()),
+                                        scene.triangles.data(), scene.triangles.size() / 3, {});
   REQUIRE(scene.pairs(x) > 0);
   CHECK(mesh.rest_pairs.size() == scene.pairs(x));
   ContactWorkspace workspace = make_contact_workspace(mesh, {});

@@ -95,14 +95,15 @@ void check_rest_pose(const RuntimeModel& model) {
     if (!skinned && variant.options.method != SF_METHOD_SKELFORM) continue;
     InstancePtr instance(model.asset);
     const std::vector<glm::mat4> identity(info.joint_count, glm::mat4(1.0f));
-    REQUIRE(sf_instance_set_joint_matrices(instance, identity.empty() ? nullptr : &identity[0][0][0],
-                                           identity.size(), 0) == SF_OK);
+    REQUIRE(sf_instance_set_joint_matrices(instance, identity.empty() ? nullptr : &identity[0][0][0], identity.size(),
+                                           0) == SF_OK);
     for (int round = 0; round < 4; ++round) {
       sf_eval_options options = variant.options;
       if (round == 0) options.flags |= SF_EVAL_FROM_REST;
       REQUIRE_MESSAGE(sf_instance_evaluate(instance, &options) == SF_OK, sf_instance_last_error(instance));
       const RestError r = rest_error(model, skelform::test::write_all(instance, model.asset));
-      INFO(model.name << ", " << std::string(variant.name) << std::string(round == 0 ? ", from rest" : ", incremental"));
+      INFO(model.name << ", " << std::string(variant.name)
+                      << std::string(round == 0 ? ", from rest" : ", incremental"));
       CHECK(r.finite);
       CHECK(r.unit_normals);
       CHECK(r.tangent_w);
@@ -112,9 +113,9 @@ void check_rest_pose(const RuntimeModel& model) {
       worst = std::max(worst, r.position);
       if (round == 0 || round == 3)
         MESSAGE(model.name << " rest " << std::string(variant.name)
-                           << std::string(round == 0 ? " from rest" : " incremental")
-                           << ": position error " << r.position << " of the diagonal, normals " << r.normal
-                           << " deg, tangents " << r.tangent << " deg");
+                           << std::string(round == 0 ? " from rest" : " incremental") << ": position error "
+                           << r.position << " of the diagonal, normals " << r.normal << " deg, tangents " << r.tangent
+                           << " deg");
     }
   }
   CHECK(worst <= 1e-5);
@@ -191,7 +192,9 @@ size_t joint_to_bend(const RuntimeModel& model) {
 
 }  // namespace
 
-TEST_CASE("evaluate: a bent CesiumMan stays finite and close to LBS away from the joint and the baselines match a reference") {
+TEST_CASE(
+    "evaluate: a bent CesiumMan stays finite and close to LBS away from the joint and the baselines match a "
+    "reference") {
   const RuntimeModel* model = skelform::test::sample_model("CesiumMan/CesiumMan.glb");
   if (!model) return;
   const size_t joint = joint_to_bend(*model);
@@ -247,8 +250,9 @@ TEST_CASE("evaluate: a bent CesiumMan stays finite and close to LBS away from th
     const double all_max = *std::max_element(all.begin(), all.end());
     MESSAGE("CesiumMan bent, " << std::string(reconstruction ? "paper" : "carried")
                                << " reconstruction vs LBS (which moves vertices up to " << moved / model->diagonal
-                               << "): median " << all[all.size() / 2] << ", max " << all_max << ", median away from the joint " << far[far.size() / 2]
-                               << ", max away " << far_max << " of the diagonal");
+                               << "): median " << all[all.size() / 2] << ", max " << all_max
+                               << ", median away from the joint " << far[far.size() / 2] << ", max away " << far_max
+                               << " of the diagonal");
     CHECK(all[all.size() / 2] < 0.01);
     CHECK(far[far.size() / 2] < 0.002);
   }

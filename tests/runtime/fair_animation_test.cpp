@@ -32,7 +32,8 @@ enum class Property { intersections, volume };
 void check_animations(const char* relative, Property property, bool contacts = false) {
   const skelform::test::RuntimeModel* model = skelform::test::sample_model(relative);
   if (!model) return;
-  const skelform::samples::GltfAnimation gltf = skelform::samples::GltfAnimation::load_file(skelform::test::data_file(relative).string());
+  const skelform::samples::GltfAnimation gltf =
+      skelform::samples::GltfAnimation::load_file(skelform::test::data_file(relative).string());
   sf_deformable_info info{};
   REQUIRE(sf_asset_deformable_info(model->asset, 0, &info) == SF_OK);
   const skelform::test::WeldedSurface surface = skelform::test::welded_surface(*model, gltf);
@@ -65,8 +66,10 @@ void check_animations(const char* relative, Property property, bool contacts = f
       uint32_t it = 0;
       sf_instance_fairing_stats(skelform.instance, &it, nullptr);
       iterations += it;
-      const TriangleMesh s = skelform::test::posed(surface, skelform::test::write_all(skelform.instance, model->asset).positions);
-      const TriangleMesh l = skelform::test::posed(surface, skelform::test::write_all(lbs.instance, model->asset).positions);
+      const TriangleMesh s =
+          skelform::test::posed(surface, skelform::test::write_all(skelform.instance, model->asset).positions);
+      const TriangleMesh l =
+          skelform::test::posed(surface, skelform::test::write_all(lbs.instance, model->asset).positions);
       // Counting intersecting pairs is the slow part; the volume check does without it.
       const bool count = property == Property::intersections;
       const size_t sp = count ? skelform::bake::count_self_intersections(s) : 0;
@@ -93,9 +96,11 @@ void check_animations(const char* relative, Property property, bool contacts = f
            << ": ";
     if (property == Property::intersections) {
       report << "intersecting pairs skelform " << skelform_pairs << " / LBS " << lbs_pairs
-             << " (sum over frames), frames where skelform > LBS: " << worse_frames << " (by at most " << max_excess << ")";
+             << " (sum over frames), frames where skelform > LBS: " << worse_frames << " (by at most " << max_excess
+             << ")";
       if (contacts)
-        report << "; without the pass " << plain_pairs << " pairs, frames with more pairs than without: " << added_frames;
+        report << "; without the pass " << plain_pairs
+               << " pairs, frames with more pairs than without: " << added_frames;
     } else if (surface.closed)
       report << "mean |volume change| skelform " << 100 * skelform_volume / frames << " % / LBS "
              << 100 * lbs_volume / frames << " %";
@@ -150,15 +155,20 @@ TEST_CASE("fair animation: Fox at 30 fps - skelform never intersects more than L
 // dense mesh every frame, see skelform.h): the intersection bound holds on all three models,
 // the pass leaves fewer pairs than its absence over each animation, and the volume stays
 // below LBS's.
-TEST_CASE("fair animation with the contact pass: CesiumMan - never more pairs than LBS, fewer than without it, less volume lost") {
+TEST_CASE(
+    "fair animation with the contact pass: CesiumMan - never more pairs than LBS, fewer than without it, less volume "
+    "lost") {
   check_animations("CesiumMan/CesiumMan.glb", Property::intersections, true);
   check_animations("CesiumMan/CesiumMan.glb", Property::volume, true);
 }
-TEST_CASE("fair animation with the contact pass: RiggedFigure - never more pairs than LBS, fewer than without it, less volume lost") {
+TEST_CASE(
+    "fair animation with the contact pass: RiggedFigure - never more pairs than LBS, fewer than without it, less "
+    "volume lost") {
   check_animations("RiggedFigure/RiggedFigure.glb", Property::intersections, true);
   check_animations("RiggedFigure/RiggedFigure.glb", Property::volume, true);
 }
-TEST_CASE("fair animation with the contact pass: Fox - never more pairs than LBS, fewer than without it, less volume lost") {
+TEST_CASE(
+    "fair animation with the contact pass: Fox - never more pairs than LBS, fewer than without it, less volume lost") {
   check_animations("Fox/Fox.glb", Property::intersections, true);
   check_animations("Fox/Fox.glb", Property::volume, true);
 }
@@ -213,7 +223,8 @@ std::vector<float> flat(const std::vector<glm::mat4>& pose) {
 TEST_CASE("fair animation: the capsule bent and held stops moving and the same poses give the same bits") {
   const skelform::test::RuntimeModel& model = skelform::test::capsule_model();
   std::vector<std::vector<float>> poses;
-  for (int k = 0; k <= 20; ++k) poses.push_back(flat(skelform::test::bend_pose(model, 1, 0.08f * k, glm::vec3(0, 1, 0))));
+  for (int k = 0; k <= 20; ++k)
+    poses.push_back(flat(skelform::test::bend_pose(model, 1, 0.08f * k, glm::vec3(0, 1, 0))));
   CHECK(repeatable(model, poses));
   const double jitter = held_pose_jitter(model, poses.back(), 30, 10);
   MESSAGE("capsule bent 1.6 rad and held: jitter " << jitter << " of the diagonal after 30 evaluations");

@@ -46,7 +46,8 @@ double hull_function(const glm::dvec3& p, const glm::vec3* c, const float* r, do
 double brute_force_hull_distance(const glm::dvec3& p, const glm::vec3* c, const float* r, int steps) {
   double best = std::numeric_limits<double>::infinity();
   for (int i = 0; i <= steps; ++i)
-    for (int j = 0; i + j <= steps; ++j) best = std::min(best, hull_function(p, c, r, double(i) / steps, double(j) / steps));
+    for (int j = 0; i + j <= steps; ++j)
+      best = std::min(best, hull_function(p, c, r, double(i) / steps, double(j) / steps));
   return best;
 }
 
@@ -77,7 +78,8 @@ double umbrella_energy(const TriangleMesh& mesh, const std::vector<glm::vec3>& p
   double energy = 0.0;
   for (uint32_t v = 0; v < positions.size(); ++v) {
     glm::dvec3 mean(0.0);
-    for (uint32_t k = adjacency.offsets[v]; k < adjacency.offsets[v + 1]; ++k) mean += glm::dvec3(positions[adjacency.neighbours[k]]);
+    for (uint32_t k = adjacency.offsets[v]; k < adjacency.offsets[v + 1]; ++k)
+      mean += glm::dvec3(positions[adjacency.neighbours[k]]);
     const glm::dvec3 u = mean / double(adjacency.degree(v)) - glm::dvec3(positions[v]);
     energy += glm::dot(u, u);
   }
@@ -88,12 +90,12 @@ double umbrella_energy(const TriangleMesh& mesh, const std::vector<glm::vec3>& p
 // z = 0, skinned by position along the axis with a smooth blend zone, the second bone bent
 // 120° about x and twisted 150° about its own axis.
 struct BentCapsule {
-  TriangleMesh rest;                      // control mesh after the baker's tangent flow
-  std::vector<glm::vec3> skeletal_rest;   // S
-  std::vector<float> radius;              // d
-  std::vector<glm::vec3> normals_rest;    // N
-  std::vector<float> weight;              // weight of bone 2 per vertex
-  glm::dquat rotation;                    // bone 2's rotation about the joint (the origin)
+  TriangleMesh rest;                     // control mesh after the baker's tangent flow
+  std::vector<glm::vec3> skeletal_rest;  // S
+  std::vector<float> radius;             // d
+  std::vector<glm::vec3> normals_rest;   // N
+  std::vector<float> weight;             // weight of bone 2 per vertex
+  glm::dquat rotation;                   // bone 2's rotation about the joint (the origin)
 
   explicit BentCapsule(double bend_degrees = 120.0, double twist_degrees = 150.0, double blend = 0.2) {
     rest = skelform::bake::make_capsule(0.2, 1.6, 24, 40, 6);
@@ -111,7 +113,9 @@ struct BentCapsule {
                glm::angleAxis(twist_degrees * kPi / 180.0, glm::dvec3(0, 0, 1));
   }
 
-  glm::dquat blended_rotation(size_t v) const { return glm::slerp(glm::dquat(1, 0, 0, 0), rotation, double(weight[v])); }
+  glm::dquat blended_rotation(size_t v) const {
+    return glm::slerp(glm::dquat(1, 0, 0, 0), rotation, double(weight[v]));
+  }
 
   glm::dvec3 lbs(const glm::dvec3& p, size_t v) const {
     return (1.0 - weight[v]) * p + double(weight[v]) * (rotation * p);
@@ -302,9 +306,11 @@ TEST_CASE("fair: flow (4) pulls a noisy sphere onto the envelope and smooths it 
     const double before = umbrella_energy(sphere, x) / 1.69;  // compare at the same scale
     fairing.run(skeletal, radius, x, params);
     const double after = umbrella_energy(sphere, x);
-    MESSAGE("flow " << std::string(which == 0 ? "(4)" : which == 1 ? "(5)" : "(4)+(5) semi-implicit")
-                    << ": radial error " << radial_error(noisy) << " -> " << radial_error(x)
-                    << ", umbrella energy " << before << " -> " << after);
+    MESSAGE("flow " << std::string(which == 0   ? "(4)"
+                                   : which == 1 ? "(5)"
+                                                : "(4)+(5) semi-implicit")
+                    << ": radial error " << radial_error(noisy) << " -> " << radial_error(x) << ", umbrella energy "
+                    << before << " -> " << after);
     CHECK(radial_error(x) < 0.01);
     if (which != 1) CHECK(after < 0.5 * before);  // flow (5)'s W is 0 here: no smoothing
   }
@@ -364,22 +370,22 @@ Measured fair_from_rest(const BentCapsule& scene, bool semi_implicit, bool repor
   FairingParams params;
   params.semi_implicit = semi_implicit;
   params.iterations = skelform::runtime::kDefaultFairingIterations;
-  params.fold_step = semi_implicit ? skelform::runtime::kDefaultFoldStepSemiImplicit
-                                   : skelform::runtime::kDefaultFoldStepExplicit;
+  params.fold_step =
+      semi_implicit ? skelform::runtime::kDefaultFoldStepSemiImplicit : skelform::runtime::kDefaultFoldStepExplicit;
   params.intersection_step = skelform::runtime::kDefaultIntersectionStep;
   params.smoothing_reference = unfaired.data();
   std::vector<glm::vec3> x = unfaired;
   const auto start = std::chrono::steady_clock::now();
   const skelform::runtime::FairingSchedule run =
-      skelform::runtime::run_fairing_schedule(fairing.topology, skeletal.data(), scene.radius.data(), x.data(), x.size(),
-                                              params, false, 1.0f, fairing.workspace, &rest, frames.data());
+      skelform::runtime::run_fairing_schedule(fairing.topology, skeletal.data(), scene.radius.data(), x.data(),
+                                              x.size(), params, false, 1.0f, fairing.workspace, &rest, frames.data());
   const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   const Measured faired = measure(scene, x);
   if (report)
     MESSAGE(std::string(semi_implicit ? "semi-implicit" : "explicit")
             << " after " << run.iterations << " iterations: " << faired.intersections << " pairs, volume "
-            << 100 * faired.volume_change << " %, residual " << run.residual << ", "
-            << 1e3 * seconds / run.iterations << " ms per iteration");
+            << 100 * faired.volume_change << " %, residual " << run.residual << ", " << 1e3 * seconds / run.iterations
+            << " ms per iteration");
   return faired;
 }
 
@@ -396,7 +402,8 @@ Measured fair_from_rest(const BentCapsule& scene, bool semi_implicit, bool repor
 // themselves: half of LBS's pairs are between triangles whose every corner has one influence,
 // which no method keeping rigid parts rigid can remove. What holds instead, at every bend:
 // never a pair LBS does not have, and never more volume lost than LBS.
-TEST_CASE("fair: bent and twisted capsule - never more pairs or volume change than LBS; the rigid parts overlap at 120 deg") {
+TEST_CASE(
+    "fair: bent and twisted capsule - never more pairs or volume change than LBS; the rigid parts overlap at 120 deg") {
   const skelform::test::RuntimeModel& model = skelform::test::bent_capsule_model();
   const skelform::test::CapsuleShape shape = skelform::test::bent_capsule_shape();
   const TriangleMesh rest = skelform::bake::make_capsule(shape.radius, shape.length, 24, shape.rings, 6);
@@ -436,7 +443,8 @@ TEST_CASE("fair: bent and twisted capsule - never more pairs or volume change th
     CHECK(std::fabs(faired.measured.volume_change) <= std::fabs(lbs.measured.volume_change) + 1e-6);
     double rigid_deviation = 0.0;
     for (uint32_t v = 0; v < rest.positions.size(); ++v)
-      if (rigid(v)) rigid_deviation = std::max(rigid_deviation, double(glm::length(faired.positions[v] - lbs.positions[v])));
+      if (rigid(v))
+        rigid_deviation = std::max(rigid_deviation, double(glm::length(faired.positions[v] - lbs.positions[v])));
     CHECK(rigid_deviation <= 1e-6 * shape.length);
   }
   // At 120 degrees the rigid parts alone intersect: the pairs between triangles with one
@@ -464,9 +472,9 @@ TEST_CASE("fair: capsule bent 40 deg: the reconstruction folds on the inner side
   const Measured lbs = measure(scene, scene.lbs_mesh());
   const Measured reconstruction = measure(scene, scene.reconstructed());
   const Measured faired = fair_from_rest(scene, false, false);
-  MESSAGE("bent 40 deg: LBS " << lbs.intersections << " pairs, volume " << 100 * lbs.volume_change
-                              << " %; unfaired " << reconstruction.intersections << " pairs; faired "
-                              << faired.intersections << " pairs, volume " << 100 * faired.volume_change << " %");
+  MESSAGE("bent 40 deg: LBS " << lbs.intersections << " pairs, volume " << 100 * lbs.volume_change << " %; unfaired "
+                              << reconstruction.intersections << " pairs; faired " << faired.intersections
+                              << " pairs, volume " << 100 * faired.volume_change << " %");
   CHECK(lbs.intersections > 0);
   CHECK(reconstruction.intersections > 0);  // the fold is there to remove
   CHECK(faired.intersections == 0);
@@ -524,7 +532,8 @@ TEST_CASE("fair: the rest pose is nearly a fixed point - runs are deterministic 
       fairing.run(skeletal, scene.radius, unit, params);
       fairing.run(scaled_skeletal, scaled_radius, scaled, params);
       double worst = 0.0;
-      for (size_t v = 0; v < unit.size(); ++v) worst = std::max(worst, double(glm::length(scaled[v] / scale - unit[v])));
+      for (size_t v = 0; v < unit.size(); ++v)
+        worst = std::max(worst, double(glm::length(scaled[v] / scale - unit[v])));
       MESSAGE(std::string(semi_implicit ? "semi-implicit" : "explicit")
               << ": x" << scale << " vs x1 after " << params.iterations << " iterations differ by " << worst / diagonal
               << " of the diagonal");
@@ -562,7 +571,8 @@ TEST_CASE("fair: a non-finite vertex does not spread / mismatched sizes are refu
   open_fairing.run(skeletal, scene.radius, y, params);
   size_t border = 0;
   for (uint32_t v = 0; v < y.size(); ++v)
-    if (open_fairing.topology.fixed[v] && open_fairing.topology.neighbour_offsets[v + 1] > open_fairing.topology.neighbour_offsets[v]) {
+    if (open_fairing.topology.fixed[v] &&
+        open_fairing.topology.neighbour_offsets[v + 1] > open_fairing.topology.neighbour_offsets[v]) {
       ++border;
       CHECK(y[v] == before[v]);
     }
@@ -605,11 +615,13 @@ TEST_CASE("fair_experiment" * doctest::skip(std::getenv("FAIR_EXPERIMENT") == nu
             for (uint32_t i : p)
               for (uint32_t j : q) adjacent = adjacent || i == j;
             if (adjacent) continue;
-            if (!skelform::bake::triangles_intersect(posed.positions[p[0]], posed.positions[p[1]], posed.positions[p[2]],
-                                                     posed.positions[q[0]], posed.positions[q[1]], posed.positions[q[2]]))
+            if (!skelform::bake::triangles_intersect(posed.positions[p[0]], posed.positions[p[1]],
+                                                     posed.positions[p[2]], posed.positions[q[0]],
+                                                     posed.positions[q[1]], posed.positions[q[2]]))
               continue;
             auto where = [&](const skelform::bake::Triangle& t) {
-              const Vec3 c = (scene.rest.positions[t[0]] + scene.rest.positions[t[1]] + scene.rest.positions[t[2]]) / 3.0;
+              const Vec3 c =
+                  (scene.rest.positions[t[0]] + scene.rest.positions[t[1]] + scene.rest.positions[t[2]]) / 3.0;
               char buffer[64];
               std::snprintf(buffer, sizeof buffer, "(z %.3f, angle %.0f)", c.z, std::atan2(c.y, c.x) * 180 / kPi);
               return std::string(buffer);
@@ -622,5 +634,3 @@ TEST_CASE("fair_experiment" * doctest::skip(std::getenv("FAIR_EXPERIMENT") == nu
     fairing.run(skeletal, scene.radius, x, params);
   }
 }
-
-

@@ -273,7 +273,8 @@ TEST_CASE("handles: few handles take the precomputed basis, many the substitutio
   const SystemPtr forced = create(d, many, bottom, {}, HandleSolvePath::basis);
   const std::vector<glm::dvec3> by_basis = solve(*forced, d, disp);
   double difference = 0;
-  for (size_t v = 0; v < by_basis.size(); ++v) difference = std::max(difference, glm::length(by_basis[v] - by_substitution[v]));
+  for (size_t v = 0; v < by_basis.size(); ++v)
+    difference = std::max(difference, glm::length(by_basis[v] - by_substitution[v]));
   CHECK(difference <= 1e-6 * max_norm(by_substitution));
 }
 
@@ -322,10 +323,10 @@ TEST_CASE("handles: invalid handle sets are refused with std::invalid_argument")
   const uint32_t n = d.control_vertex_count;
   Counter counter;
   const AllocatorRef alloc{sf_allocator{counting_alloc, counting_free, &counter}};
-  CHECK_THROWS_AS(create(d, {}, {1, 2}, alloc), std::invalid_argument);                // no handle
-  CHECK_THROWS_AS(create(d, {0, n}, {}, alloc), std::invalid_argument);                 // handle out of range
-  CHECK_THROWS_AS(create(d, {0}, {n + 5}, alloc), std::invalid_argument);               // pin out of range
-  CHECK_THROWS_AS(create(d, {0, 4}, {3, 4}, alloc), std::invalid_argument);             // both handle and pinned
+  CHECK_THROWS_AS(create(d, {}, {1, 2}, alloc), std::invalid_argument);      // no handle
+  CHECK_THROWS_AS(create(d, {0, n}, {}, alloc), std::invalid_argument);      // handle out of range
+  CHECK_THROWS_AS(create(d, {0}, {n + 5}, alloc), std::invalid_argument);    // pin out of range
+  CHECK_THROWS_AS(create(d, {0, 4}, {3, 4}, alloc), std::invalid_argument);  // both handle and pinned
   CHECK_THROWS_AS(skelform::runtime::handle_system_create(d, nullptr, 2, nullptr, 0, alloc), std::invalid_argument);
   const uint32_t h = 0;
   CHECK_THROWS_AS(skelform::runtime::handle_system_create(d, &h, 1, nullptr, 3, alloc), std::invalid_argument);
@@ -397,7 +398,7 @@ TEST_CASE("handles: a baked hand's fingertip dragged sideways with the wrist pin
   for (uint32_t v = 0; v < d.control_vertex_count; ++v)
     if (glm::length(out[v] - d.skeletal_positions[v]) > 0.1f * glm::length(drag)) ++moved;
   MESSAGE("hand_closed: max displacement change across an edge " << worst_edge << " of the drag; " << moved
-                                                                  << " vertices moved by > 10% of it");
+                                                                 << " vertices moved by > 10% of it");
   CHECK(worst_edge < 0.35);
   CHECK(moved > 20);  // the drag spreads over the finger, not one vertex
 }
@@ -426,10 +427,9 @@ std::filesystem::path write_plain_gltf(const skelform::bake::InputMesh& mesh, co
        << R"(,"target":34962},{"buffer":0,"byteOffset":)" << index_offset << R"(,"byteLength":)"
        << bin.size() - index_offset << R"(,"target":34963}],)"
        << R"("accessors":[{"bufferView":0,"componentType":5126,"count":)" << mesh.positions.size()
-       << R"(,"type":"VEC3","min":[)" << lo.x << "," << lo.y << "," << lo.z << "],\"max\":[" << hi.x << ","
-       << hi.y << "," << hi.z << "]},"
-       << R"({"bufferView":1,"componentType":5125,"count":)" << 3 * mesh.triangles.size()
-       << R"(,"type":"SCALAR"}]})";
+       << R"(,"type":"VEC3","min":[)" << lo.x << "," << lo.y << "," << lo.z << "],\"max\":[" << hi.x << "," << hi.y
+       << "," << hi.z << "]},"
+       << R"({"bufferView":1,"componentType":5125,"count":)" << 3 * mesh.triangles.size() << R"(,"type":"SCALAR"}]})";
   const std::filesystem::path path = dir / "hand.gltf";
   std::ofstream(path) << json.str();
   return path;
@@ -469,8 +469,8 @@ TEST_CASE("handles: through the C API, a baked hand's fingertip follows its targ
     const auto& indices = baked.deformables[0].control_indices;
     for (size_t t = 0; t + 2 < indices.size(); t += 3)
       for (int c = 0; c < 3; ++c)
-        longest_control_edge = std::max(longest_control_edge,
-                                        glm::length(control[indices[t + c]] - control[indices[t + (c + 1) % 3]]));
+        longest_control_edge =
+            std::max(longest_control_edge, glm::length(control[indices[t + c]] - control[indices[t + (c + 1) % 3]]));
   }
   // Original vertices: fingertip = max along the longest axis; wrist = the opposite 30 %.
   const size_t n = hand.positions.size();
@@ -532,10 +532,10 @@ TEST_CASE("handles: through the C API, a baked hand's fingertip follows its targ
       worst_edge = std::max(worst_edge, double(glm::length(da - db)) / glm::length(drag));
     }
   MESSAGE("C API hand: " << deep.size() << " deep pinned vertices (longest control edge "
-                          << longest_control_edge / diagonal << " diag); wrist moved " << worst_deep / diagonal << " diag (handle at rest: " << rest_deep / diagonal
-                                     << "); tip " << tip_after / tip_before
-                                     << " of the drag from its target; max change across a dense edge "
-                                     << worst_edge << " of the drag");
+                         << longest_control_edge / diagonal << " diag); wrist moved " << worst_deep / diagonal
+                         << " diag (handle at rest: " << rest_deep / diagonal << "); tip " << tip_after / tip_before
+                         << " of the drag from its target; max change across a dense edge " << worst_edge
+                         << " of the drag");
   CHECK(worst_deep <= 1e-5 * diagonal);
   CHECK(tip_after < 0.5 * tip_before);  // the fingertip went most of the way
   CHECK(worst_edge < 0.35);
@@ -548,7 +548,8 @@ TEST_CASE("handles: Fig. 11 - an ellipsoid bent by handles has no self-intersect
   const std::filesystem::path dir = skelform::test::scratch_dir("handles_fig11");
   skelform::bake::TriangleMesh sphere = skelform::bake::make_uv_sphere(1.0, 32, 48);
   skelform::bake::InputMesh ellipsoid;
-  for (const skelform::bake::Vec3& p : sphere.positions) ellipsoid.positions.push_back({0.25 * p.x, 0.25 * p.y, 1.0 * p.z});
+  for (const skelform::bake::Vec3& p : sphere.positions)
+    ellipsoid.positions.push_back({0.25 * p.x, 0.25 * p.y, 1.0 * p.z});
   ellipsoid.triangles = sphere.triangles;
   const std::filesystem::path gltf = write_plain_gltf(ellipsoid, dir);
   skelform::bake::LoadOptions load;
@@ -581,7 +582,8 @@ TEST_CASE("handles: Fig. 11 - an ellipsoid bent by handles has no self-intersect
   for (int faired = 0; faired < 2; ++faired) {
     sf_instance* instance = nullptr;
     REQUIRE(sf_instance_create(asset, 0, &instance) == SF_OK);
-    REQUIRE(sf_instance_set_handle_set(instance, handles.data(), handles.size(), pinned.data(), pinned.size()) == SF_OK);
+    REQUIRE(sf_instance_set_handle_set(instance, handles.data(), handles.size(), pinned.data(), pinned.size()) ==
+            SF_OK);
     REQUIRE(sf_instance_set_handle_targets(instance, &targets[0].x, targets.size(), 0) == SF_OK);
     sf_eval_options options{};
     options.flags = SF_EVAL_FROM_REST;
@@ -599,7 +601,7 @@ TEST_CASE("handles: Fig. 11 - an ellipsoid bent by handles has no self-intersect
     sf_instance_destroy(instance);
   }
   MESSAGE("ellipsoid bent 90 deg by handles: " << pairs[0] << " intersecting pairs without fairing, " << pairs[1]
-                                                << " with flows (4)+(5)");
+                                               << " with flows (4)+(5)");
   sf_asset_destroy(asset);
   CHECK(pairs[0] > 0);  // the scene is a real test: unfaired, it intersects
   CHECK(pairs[1] == 0);

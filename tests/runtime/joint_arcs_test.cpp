@@ -77,11 +77,13 @@ TEST_CASE("joint arcs: beyond the zone the parent's side stays and the child's m
   const ArcJoint joint = capsule_joint();
   const glm::vec3 side = across(joint.axis);
   for (int round = 0; round < 200; ++round) {
-    const glm::vec3 bend_axis = glm::normalize(glm::cross(joint.axis, glm::vec3(unit(random), unit(random), unit(random))));
-    const glm::quat rotation = glm::angleAxis(0.5f * angle(random) + 0.5f * kPi, bend_axis) *
-                               glm::angleAxis(angle(random), joint.axis);
-    const glm::mat4 child = glm::translate(glm::mat4(1.0f), 0.01f * glm::vec3(unit(random), unit(random), unit(random))) *
-                            turned_about(joint, rotation);
+    const glm::vec3 bend_axis =
+        glm::normalize(glm::cross(joint.axis, glm::vec3(unit(random), unit(random), unit(random))));
+    const glm::quat rotation =
+        glm::angleAxis(0.5f * angle(random) + 0.5f * kPi, bend_axis) * glm::angleAxis(angle(random), joint.axis);
+    const glm::mat4 child =
+        glm::translate(glm::mat4(1.0f), 0.01f * glm::vec3(unit(random), unit(random), unit(random))) *
+        turned_about(joint, rotation);
     const ArcPose pose = skelform::runtime::make_arc_pose(joint, glm::mat4(1.0f), child);
     for (float z : {-2.0f * joint.zone, -joint.zone, joint.zone, 2.0f * joint.zone}) {
       const glm::vec3 x = joint.center + z * joint.axis + 0.17f * side;
@@ -91,7 +93,9 @@ TEST_CASE("joint arcs: beyond the zone the parent's side stays and the child's m
   }
 }
 
-TEST_CASE("joint arcs: the map is continuous along the axis, the centre line turns no tighter than the arc, the zone keeps its volume") {
+TEST_CASE(
+    "joint arcs: the map is continuous along the axis, the centre line turns no tighter than the arc, the zone keeps "
+    "its volume") {
   const ArcJoint joint = capsule_joint();
   const glm::vec3 side = across(joint.axis);
   for (float degrees : {20.0f, 60.0f, 90.0f, 120.0f, 150.0f}) {
@@ -114,7 +118,8 @@ TEST_CASE("joint arcs: the map is continuous along the axis, the centre line tur
         largest_step = std::max(largest_step, double(glm::length(point - previous_point)));
         const glm::dvec3 tangent = glm::dvec3(centre - previous_centre) / double(dz);
         if (i > 1 && glm::length(tangent) > 1e-3 && glm::length(previous_tangent) > 1e-3) {
-          const double turn = std::atan2(glm::length(glm::cross(tangent, previous_tangent)), glm::dot(tangent, previous_tangent));
+          const double turn =
+              std::atan2(glm::length(glm::cross(tangent, previous_tangent)), glm::dot(tangent, previous_tangent));
           sharpest = std::max(sharpest, turn / (0.5 * (glm::length(tangent) + glm::length(previous_tangent)) * dz));
         }
         // Cross sections scale by k, the centre line's length element is |dC/dz|.
@@ -126,8 +131,8 @@ TEST_CASE("joint arcs: the map is continuous along the axis, the centre line tur
     }
     INFO(degrees << " degrees: arc radius " << pose.arc_radius << ", bulge " << pose.bulge << ", largest step "
                  << largest_step << ", curvature " << sharpest << ", volume " << volume << " of " << 3.0f * joint.zone);
-    CHECK(largest_step < 20.0 * dz);                           // no jump
-    CHECK(sharpest <= 1.03 / double(pose.arc_radius));         // curvature at most 1/ρ
+    CHECK(largest_step < 20.0 * dz);                    // no jump
+    CHECK(sharpest <= 1.03 / double(pose.arc_radius));  // curvature at most 1/ρ
     if (degrees <= 120.0f) {
       CHECK(pose.arc_radius == doctest::Approx(joint.radius));  // the fillet fits the zone
       CHECK(volume == doctest::Approx(3.0 * joint.zone).epsilon(2e-3));
@@ -199,9 +204,9 @@ TEST_CASE("joint arcs: the loader finds the limb joints of the capsule and the p
   }
   {
     const skelform::bake::RiggedCharacter character = skelform::bake::make_rigged_character();
-    const std::unique_ptr<skelform::test::RuntimeModel> model = skelform::test::detail::bake_and_load(
-        "character.glb", skelform::bake::rigged_character_glb(character), ".glb",
-        skelform::test::scratch_dir("joint_arcs").string());
+    const std::unique_ptr<skelform::test::RuntimeModel> model =
+        skelform::test::detail::bake_and_load("character.glb", skelform::bake::rigged_character_glb(character), ".glb",
+                                              skelform::test::scratch_dir("joint_arcs").string());
     const skelform::runtime::Deformable& d = model->asset->deformables[0];
     std::vector<int> children(character.joints.size(), 0);
     for (const auto& j : character.joints)
@@ -219,8 +224,10 @@ TEST_CASE("joint arcs: the loader finds the limb joints of the capsule and the p
     };
     // Knees and elbows (the skin's joint order is the rig's).
     for (const char* side : {".L", ".R"}) {
-      CHECK(has_arc(index((std::string("upper_leg") + side).c_str()), index((std::string("lower_leg") + side).c_str())));
-      CHECK(has_arc(index((std::string("upper_arm") + side).c_str()), index((std::string("lower_arm") + side).c_str())));
+      CHECK(
+          has_arc(index((std::string("upper_leg") + side).c_str()), index((std::string("lower_leg") + side).c_str())));
+      CHECK(
+          has_arc(index((std::string("upper_arm") + side).c_str()), index((std::string("lower_arm") + side).c_str())));
     }
     for (const ArcJoint& a : d.arc_joints) {
       CHECK(children[a.child] <= 1);  // never where the child branches (chest, pelvis)
@@ -239,8 +246,7 @@ TEST_CASE("joint arcs: the default skeleton skinning equals linear blending at a
   sf_eval_options arcs_options{}, linear_options{};
   linear_options.skeleton_skinning = SF_SKELETON_LBS;
   for (float degrees : {10.0f, 110.0f}) {
-    const std::vector<glm::mat4> pose =
-        skelform::test::bend_pose(model, 1, degrees * kPi / 180.0f, glm::vec3(1, 0, 0));
+    const std::vector<glm::mat4> pose = skelform::test::bend_pose(model, 1, degrees * kPi / 180.0f, glm::vec3(1, 0, 0));
     REQUIRE(sf_instance_set_joint_matrices(arcs, &pose[0][0][0], pose.size(), 0) == SF_OK);
     REQUIRE(sf_instance_set_joint_matrices(linear, &pose[0][0][0], pose.size(), 0) == SF_OK);
     REQUIRE(sf_instance_evaluate(arcs, &arcs_options) == SF_OK);

@@ -68,7 +68,8 @@ glm::mat4 bend_twist(double bend_degrees, double twist_degrees) {
 
 }  // namespace
 
-TEST_CASE("guard: every intersecting pair of the output is one LBS has; a closed mesh's volume error never exceeds LBS's") {
+TEST_CASE(
+    "guard: every intersecting pair of the output is one LBS has; a closed mesh's volume error never exceeds LBS's") {
   // The two capsules bent and twisted from 0 to 150 degrees (their child joint is at the
   // origin), evaluated from rest and incrementally through the bend.
   for (const RuntimeModel* model : {&skelform::test::capsule_model(), &skelform::test::bent_capsule_model()}) {
@@ -78,7 +79,8 @@ TEST_CASE("guard: every intersecting pair of the output is one LBS has; a closed
     for (int bend = 0; bend <= 150; bend += 10) {
       for (double twist : {0.0, 90.0}) {
         const std::vector<glm::mat4> pose = {glm::mat4(1.0f), bend_twist(bend, twist)};
-        const TriangleMesh s = skelform::test::posed(w, skelform.evaluate(model->asset, pose, SF_METHOD_SKELFORM).positions);
+        const TriangleMesh s =
+            skelform::test::posed(w, skelform.evaluate(model->asset, pose, SF_METHOD_SKELFORM).positions);
         const TriangleMesh l = skelform::test::posed(w, lbs.evaluate(model->asset, pose, SF_METHOD_LBS).positions);
         const auto sp = skelform::bake::self_intersecting_pairs(s);
         const auto lp = skelform::bake::self_intersecting_pairs(l);
@@ -114,9 +116,10 @@ TEST_CASE("guard: on a real animation every frame's pairs are LBS's") {
       std::vector<glm::mat4> pose(m.size() / 16);
       for (size_t j = 0; j < pose.size(); ++j)
         for (int c = 0; c < 16; ++c) pose[j][c / 4][c % 4] = m[16 * j + size_t(c)];
-      const auto sp = skelform::bake::self_intersecting_pairs(
-          skelform::test::posed(w, skelform.evaluate(model->asset, pose, SF_METHOD_SKELFORM, frames == 0 ? SF_EVAL_FROM_REST : 0).positions));
-      const auto lp = skelform::bake::self_intersecting_pairs(skelform::test::posed(w, lbs.evaluate(model->asset, pose, SF_METHOD_LBS).positions));
+      const auto sp = skelform::bake::self_intersecting_pairs(skelform::test::posed(
+          w, skelform.evaluate(model->asset, pose, SF_METHOD_SKELFORM, frames == 0 ? SF_EVAL_FROM_REST : 0).positions));
+      const auto lp = skelform::bake::self_intersecting_pairs(
+          skelform::test::posed(w, lbs.evaluate(model->asset, pose, SF_METHOD_LBS).positions));
       outside += pairs_outside(sp, lp);
     }
     INFO("Fox '" << anim.name << "', " << frames << " frames");
@@ -153,7 +156,8 @@ TEST_CASE("scale: joint matrices scaled by s give the unscaled result scaled by 
   const RuntimeModel& model = skelform::test::bent_capsule_model();
   const std::vector<glm::mat4> pose = {glm::mat4(1.0f), bend_twist(70, 40)};
   Instance reference(model.asset);
-  const skelform::test::Evaluated unscaled = reference.evaluate(model.asset, pose, SF_METHOD_SKELFORM, SF_EVAL_FROM_REST);
+  const skelform::test::Evaluated unscaled =
+      reference.evaluate(model.asset, pose, SF_METHOD_SKELFORM, SF_EVAL_FROM_REST);
   for (float s : {100.0f, 0.01f, 3.7f}) {
     const glm::mat4 scale = glm::scale(glm::mat4(1.0f), glm::vec3(s));
     Instance scaled(model.asset);
@@ -169,7 +173,8 @@ TEST_CASE("scale: joint matrices scaled by s give the unscaled result scaled by 
     CHECK(normal_worst <= 1e-4);
     // The rest pose at that scale: the stored mesh, scaled.
     Instance rest(model.asset);
-    const skelform::test::Evaluated r = rest.evaluate(model.asset, {scale, scale}, SF_METHOD_SKELFORM, SF_EVAL_FROM_REST);
+    const skelform::test::Evaluated r =
+        rest.evaluate(model.asset, {scale, scale}, SF_METHOD_SKELFORM, SF_EVAL_FROM_REST);
     double rest_worst = 0;
     for (size_t v = 0; v < r.positions.size(); ++v)
       rest_worst = std::max(rest_worst, double(glm::length(r.positions[v] - s * model.primitives[0].positions[v])));

@@ -70,7 +70,8 @@ TEST_CASE("output: exact-size buffers at every stride get exactly the packed val
   const float* positions = &posed.packed.positions[info.first_vertex].x;
   const float* normals = &posed.packed.normals[info.first_vertex].x;
   const float* tangents = &posed.packed.tangents[info.first_vertex].x;
-  for (const size_t stride : {size_t(0), size_t(12), size_t(13), size_t(16), size_t(17), size_t(20), size_t(32), size_t(48)}) {
+  for (const size_t stride :
+       {size_t(0), size_t(12), size_t(13), size_t(16), size_t(17), size_t(20), size_t(32), size_t(48)}) {
     const size_t position_stride = stride ? stride : 12;
     const size_t tangent_stride = stride == 0 ? 16 : std::max<size_t>(stride, 16) + (stride == 13 ? 1 : 0);
     Block p(exact_size(n, position_stride, 12)), nb(exact_size(n, position_stride, 12)),
@@ -135,7 +136,8 @@ TEST_CASE("output: capacity one short or strides below the element or missing ta
   CHECK(untouched(st));
 }
 
-TEST_CASE("output: NULL streams are skipped and normals of a primitive without authored normals are computed and unit") {
+TEST_CASE(
+    "output: NULL streams are skipped and normals of a primitive without authored normals are computed and unit") {
   Posed posed;
   make_posed(posed);
   const sf_asset* asset = skelform::test::capsule_model().asset;
@@ -150,7 +152,8 @@ TEST_CASE("output: NULL streams are skipped and normals of a primitive without a
     REQUIRE(sf_instance_write(posed.instance, primitive, &o) == SF_OK);
     CHECK(stream_matches(nb, n, 12, 12, &posed.packed.normals[info.first_vertex].x));
     bool unit = true;
-    for (size_t i = 0; i < n; ++i) unit = unit && std::abs(glm::length(posed.packed.normals[info.first_vertex + i]) - 1.0f) < 1e-4f;
+    for (size_t i = 0; i < n; ++i)
+      unit = unit && std::abs(glm::length(posed.packed.normals[info.first_vertex + i]) - 1.0f) < 1e-4f;
     CHECK(unit);
     sf_vertex_output nothing{};
     nothing.vertex_capacity = n;

@@ -52,11 +52,11 @@ struct OriginalPrimitive {
 struct RuntimeModel {
   std::string name;
   sf_asset* asset = nullptr;
-  std::string baked_glb;                    // the baked file, for tests that load their own asset
-  std::vector<OriginalPrimitive> primitives; // of deformable 0, in its primitive order
-  std::vector<glm::mat4> inverse_bind;       // of deformable 0's skin
-  std::vector<int> joint_parent;             // per skin joint: parent joint index or -1
-  double diagonal = 0;                       // bounding-box diagonal of deformable 0's vertices
+  std::string baked_glb;                      // the baked file, for tests that load their own asset
+  std::vector<OriginalPrimitive> primitives;  // of deformable 0, in its primitive order
+  std::vector<glm::mat4> inverse_bind;        // of deformable 0's skin
+  std::vector<int> joint_parent;              // per skin joint: parent joint index or -1
+  double diagonal = 0;                        // bounding-box diagonal of deformable 0's vertices
   ~RuntimeModel() { sf_asset_destroy(asset); }
 };
 
@@ -74,8 +74,10 @@ inline std::vector<float> read_floats(const tinygltf::Model& model, int accessor
     for (int c = 0; c < components; ++c) {
       const unsigned char* p = base + i * stride + size_t(c) * size;
       float v = 0;
-      if (a.componentType == TINYGLTF_COMPONENT_TYPE_FLOAT) std::memcpy(&v, p, 4);
-      else if (a.componentType == TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE) v = float(*p) / (a.normalized ? 255.0f : 1.0f);
+      if (a.componentType == TINYGLTF_COMPONENT_TYPE_FLOAT)
+        std::memcpy(&v, p, 4);
+      else if (a.componentType == TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE)
+        v = float(*p) / (a.normalized ? 255.0f : 1.0f);
       else {
         uint16_t u;
         std::memcpy(&u, p, 2);
@@ -91,11 +93,10 @@ inline tinygltf::Model parse_gltf(const std::string& bytes, const std::string& b
   tinygltf::Model model;
   std::string error, warning;
   const bool glb = bytes.size() >= 4 && bytes.compare(0, 4, "glTF") == 0;
-  const bool ok = glb ? loader.LoadBinaryFromMemory(&model, &error, &warning,
-                                                    reinterpret_cast<const unsigned char*>(bytes.data()),
-                                                    unsigned(bytes.size()), base_dir)
-                      : loader.LoadASCIIFromString(&model, &error, &warning, bytes.data(), unsigned(bytes.size()),
-                                                   base_dir);
+  const bool ok =
+      glb ? loader.LoadBinaryFromMemory(&model, &error, &warning, reinterpret_cast<const unsigned char*>(bytes.data()),
+                                        unsigned(bytes.size()), base_dir)
+          : loader.LoadASCIIFromString(&model, &error, &warning, bytes.data(), unsigned(bytes.size()), base_dir);
   REQUIRE_MESSAGE(ok, error);
   return model;
 }
@@ -145,14 +146,16 @@ inline std::unique_ptr<RuntimeModel> bake_and_load(const std::string& name, cons
     }
     if (prim.attributes.count("TANGENT")) {
       const std::vector<float> t = read_floats(model, prim.attributes.at("TANGENT"), 4);
-      for (size_t i = 0; i < t.size() / 4; ++i) out.tangents.emplace_back(t[4 * i], t[4 * i + 1], t[4 * i + 2], t[4 * i + 3]);
+      for (size_t i = 0; i < t.size() / 4; ++i)
+        out.tangents.emplace_back(t[4 * i], t[4 * i + 1], t[4 * i + 2], t[4 * i + 3]);
     }
     if (prim.attributes.count("JOINTS_0") && prim.attributes.count("WEIGHTS_0")) {
       // JOINTS are unnormalised integers: read_floats gives their values.
       const std::vector<float> j = read_floats(model, prim.attributes.at("JOINTS_0"), 4);
       const std::vector<float> w = read_floats(model, prim.attributes.at("WEIGHTS_0"), 4);
       for (size_t i = 0; i < j.size() / 4; ++i) {
-        out.joints.emplace_back(unsigned(j[4 * i]), unsigned(j[4 * i + 1]), unsigned(j[4 * i + 2]), unsigned(j[4 * i + 3]));
+        out.joints.emplace_back(unsigned(j[4 * i]), unsigned(j[4 * i + 1]), unsigned(j[4 * i + 2]),
+                                unsigned(j[4 * i + 3]));
         out.weights.emplace_back(w[4 * i], w[4 * i + 1], w[4 * i + 2], w[4 * i + 3]);
       }
     }
@@ -217,8 +220,9 @@ inline const RuntimeModel& bent_capsule_model() {
 
 // The skinned sample models of ../shared/data, by folder name.
 inline const std::vector<std::string>& sample_names() {
-  static const std::vector<std::string> names = {"CesiumMan/CesiumMan.glb", "Fox/Fox.glb", "RiggedFigure/RiggedFigure.glb",
-                                                 "RiggedSimple/RiggedSimple.glb", "SimpleSkin/SimpleSkin.gltf"};
+  static const std::vector<std::string> names = {"CesiumMan/CesiumMan.glb", "Fox/Fox.glb",
+                                                 "RiggedFigure/RiggedFigure.glb", "RiggedSimple/RiggedSimple.glb",
+                                                 "SimpleSkin/SimpleSkin.gltf"};
   return names;
 }
 

@@ -28,8 +28,8 @@ float weight_of(std::vector<uint16_t> joints, std::vector<float> weights) {
 }
 
 std::string bake(const std::string& bytes) {
-  const skelform::bake::InputMesh input =
-      skelform::bake::load_mesh_from_memory(std::vector<unsigned char>(bytes.begin(), bytes.end()), ".glb", "capsule.glb");
+  const skelform::bake::InputMesh input = skelform::bake::load_mesh_from_memory(
+      std::vector<unsigned char>(bytes.begin(), bytes.end()), ".glb", "capsule.glb");
   return skelform::bake::baked_glb(bytes, ".", skelform::bake::bake_model(input).deformables);
 }
 
@@ -81,8 +81,8 @@ TEST_CASE("skelform weight: 0 for one influence, 1 once another joint carries 5 
   CHECK(weight_of({3, 3, 0, 0}, {0.5f, 0.5f, 0, 0}) == 0.0f);        // one joint named twice
   CHECK(weight_of({3, 7, 0, 0}, {0.95f, 0.05f, 0, 0}) == 1.0f);
   CHECK(weight_of({3, 7, 9, 0}, {0.4f, 0.3f, 0.3f, 0}) == 1.0f);
-  CHECK(weight_of({3, 7, 0, 0}, {2.0f, 2.0f, 0, 0}) == 1.0f);        // unnormalised weights
-  CHECK(weight_of({0, 0, 0, 0}, {0, 0, 0, 0}) == 0.0f);              // no weight at all
+  CHECK(weight_of({3, 7, 0, 0}, {2.0f, 2.0f, 0, 0}) == 1.0f);  // unnormalised weights
+  CHECK(weight_of({0, 0, 0, 0}, {0, 0, 0, 0}) == 0.0f);        // no weight at all
   // Rising monotonically and continuously from 0 to 1 between.
   float previous = 0.0f;
   for (int i = 0; i <= 100; ++i) {

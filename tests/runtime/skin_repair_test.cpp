@@ -119,7 +119,8 @@ TEST_CASE("skin repair: a primitive whose every weight is NaN is refused, naming
     for (size_t k = 0; k < 4; ++k) glb.put_f32(glb.offset_of(weights, v, 16) + 4 * k, std::nanf(""));
   const std::string bytes = glb.bytes();
   try {
-    skelform::bake::load_mesh_from_memory(std::vector<unsigned char>(bytes.begin(), bytes.end()), ".glb", "all_nan.glb");
+    skelform::bake::load_mesh_from_memory(std::vector<unsigned char>(bytes.begin(), bytes.end()), ".glb",
+                                          "all_nan.glb");
     FAIL("an all-NaN skin was accepted");
   } catch (const skelform::bake::Error& e) {
     CHECK(e.kind() == skelform::bake::ErrorKind::invalid_input);

@@ -38,7 +38,8 @@ void boxes_of(const std::vector<glm::vec3>& p, const std::vector<uint32_t>& tri,
     }
 }
 
-PairSet brute_force(const std::vector<uint32_t>& tri, const std::vector<float>& boxes, const std::vector<uint8_t>& wanted) {
+PairSet brute_force(const std::vector<uint32_t>& tri, const std::vector<float>& boxes,
+                    const std::vector<uint8_t>& wanted) {
   PairSet pairs;
   const size_t n = tri.size() / 3;
   for (size_t s = 0; s < n; ++s)
@@ -85,7 +86,8 @@ void check_search(const std::vector<glm::vec3>& rest, const std::vector<glm::vec
 
 // A (k+1)² grid in the plane z = 0, two triangles per cell, rolled up around the x axis by
 // `turns` (more than one turn lays the sheet onto itself, so far-apart triangles meet).
-void grid(uint32_t k, float turns, std::vector<glm::vec3>& rest, std::vector<glm::vec3>& now, std::vector<uint32_t>& tri) {
+void grid(uint32_t k, float turns, std::vector<glm::vec3>& rest, std::vector<glm::vec3>& now,
+          std::vector<uint32_t>& tri) {
   for (uint32_t j = 0; j <= k; ++j)
     for (uint32_t i = 0; i <= k; ++i) {
       const float x = float(i) / float(k), y = float(j) / float(k);

@@ -45,8 +45,8 @@ std::vector<TrianglePair> brute_force_pairs(const DenseTopology& topology, const
       bool adjacent = false;
       for (uint32_t a : tris[s])
         for (uint32_t b : tris[t]) adjacent = adjacent || a == b;
-      if (!adjacent && skelform::bake::triangles_intersect(at(tris[s][0]), at(tris[s][1]), at(tris[s][2]), at(tris[t][0]),
-                                                           at(tris[t][1]), at(tris[t][2])))
+      if (!adjacent && skelform::bake::triangles_intersect(at(tris[s][0]), at(tris[s][1]), at(tris[s][2]),
+                                                           at(tris[t][0]), at(tris[t][1]), at(tris[t][2])))
         pairs.emplace_back(s, t);
     }
   return pairs;
@@ -65,7 +65,8 @@ TEST_CASE("quality metrics: the pair search finds exactly the pairs a test of ev
   for (double scale : {1e-2, 1.0, 1e3}) {
     for (int trial = 0; trial < 4; ++trial) {
       skelform::bake::TriangleMesh crumpled = sphere;
-      for (auto& p : crumpled.positions) p = (p + skelform::bake::Vec3(jitter(random), jitter(random), jitter(random))) * scale;
+      for (auto& p : crumpled.positions)
+        p = (p + skelform::bake::Vec3(jitter(random), jitter(random), jitter(random))) * scale;
       const std::vector<float> positions = flatten(crumpled);
       const DenseTopology topology = skelform::samples::dense_topology(positions, corners(crumpled));
       const std::vector<TrianglePair> fast = skelform::samples::intersecting_pairs(topology, positions);

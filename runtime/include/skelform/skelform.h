@@ -164,14 +164,14 @@ SF_API uint32_t sf_asset_deformable_count(const sf_asset* asset);
 
 /* Description of one deformable. */
 typedef struct sf_deformable_info {
-  int32_t mesh;                  /* glTF mesh index */
-  int32_t node;                  /* glTF node instancing it with the skin, or -1 */
-  int32_t skin;                  /* glTF skin, or -1 (unskinned: handles only) */
-  uint32_t joint_count;          /* joints of the skin (matrices sf_instance_set_joint_matrices takes) */
-  uint32_t primitive_count;      /* baked primitives of the mesh */
-  uint32_t vertex_count;         /* original vertices, all primitives */
-  uint32_t control_vertex_count; /* vertices of the control (and skeletal) mesh */
-  uint32_t subdivision_level;    /* Loop level of the refined surface */
+  int32_t mesh;                    /* glTF mesh index */
+  int32_t node;                    /* glTF node instancing it with the skin, or -1 */
+  int32_t skin;                    /* glTF skin, or -1 (unskinned: handles only) */
+  uint32_t joint_count;            /* joints of the skin (matrices sf_instance_set_joint_matrices takes) */
+  uint32_t primitive_count;        /* baked primitives of the mesh */
+  uint32_t vertex_count;           /* original vertices, all primitives */
+  uint32_t control_vertex_count;   /* vertices of the control (and skeletal) mesh */
+  uint32_t subdivision_level;      /* Loop level of the refined surface */
   uint32_t control_triangle_count; /* triangles of the control (and skeletal) mesh */
 } sf_deformable_info;
 
@@ -295,24 +295,25 @@ typedef enum sf_reconstruction {
 } sf_reconstruction;
 
 /* Evaluation flags (bit mask). */
-#define SF_EVAL_FROM_REST 0x1u       /* ignore the previous evaluation: start from rest and run to convergence */
-#define SF_EVAL_SKIP_NORMALS 0x2u    /* do not compute normals/tangents (sf_instance_write leaves them) */
+#define SF_EVAL_FROM_REST 0x1u    /* ignore the previous evaluation: start from rest and run to convergence */
+#define SF_EVAL_SKIP_NORMALS 0x2u /* do not compute normals/tangents (sf_instance_write leaves them) */
 
 /* Fairing flags (sf_eval_options.fairing_flags, bit mask). */
 #define SF_FAIR_NO_FOLD_FLOW 0x1u         /* skip flow (4): folds and protrusions */
 #define SF_FAIR_NO_INTERSECTION_FLOW 0x2u /* skip flow (5): self-intersections */
 #define SF_FAIR_OFF 0x3u                  /* no fairing: the reconstruction is refined as it is */
-#define SF_FAIR_SEMI_IMPLICIT 0x4u        /* semi-implicit bilaplacian steps (paper sec. 5) instead of the
-                                           * paper's explicit ones: no better here, and slower per iteration */
+/* Semi-implicit bilaplacian steps (paper sec. 5) instead of the paper's explicit ones: no
+ * better here, and slower per iteration. */
+#define SF_FAIR_SEMI_IMPLICIT 0x4u
 
 /* Evaluation options; a zeroed struct (or NULL) means the documented defaults. Fields are
  * only appended in later versions. */
 typedef struct sf_eval_options {
-  uint32_t method;              /* sf_method; 0 = SF_METHOD_SKELFORM */
-  uint32_t skeleton_skinning;   /* sf_skeleton_skinning; 0 = SF_SKELETON_ARCS */
-  uint32_t reconstruction;      /* sf_reconstruction; 0 = carried normals */
-  uint32_t homotopy_steps;      /* L of eq. (2), <= 100; 0 = 3 (the paper's choice) */
-  uint32_t flags;               /* SF_EVAL_* bits */
+  uint32_t method;            /* sf_method; 0 = SF_METHOD_SKELFORM */
+  uint32_t skeleton_skinning; /* sf_skeleton_skinning; 0 = SF_SKELETON_ARCS */
+  uint32_t reconstruction;    /* sf_reconstruction; 0 = carried normals */
+  uint32_t homotopy_steps;    /* L of eq. (2), <= 100; 0 = 3 (the paper's choice) */
+  uint32_t flags;             /* SF_EVAL_* bits */
   /* Fairing (paper eqs. (4) and (5)), SF_METHOD_SKELFORM only; docs/runtime-api.md "Fairing".
    * Zero in every field = the defaults. */
   uint32_t fairing_flags;      /* SF_FAIR_* bits; 0 = both flows, explicit steps */

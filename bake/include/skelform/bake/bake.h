@@ -11,9 +11,9 @@
 namespace skelform::bake {
 
 struct BakeOptions {
-  size_t target_triangles = 4000; // control-mesh size (the paper used 2K-6K)
-  int subdivision_level = -1;     // Loop level k; -1 chooses it so 4^k·control ≈ dense
-  int tangent_flow_steps = 100;   // bilaplacian tangent flow on the control mesh
+  size_t target_triangles = 4000;  // control-mesh size (the paper used 2K-6K)
+  int subdivision_level = -1;      // Loop level k; -1 chooses it so 4^k·control ≈ dense
+  int tangent_flow_steps = 100;    // bilaplacian tangent flow on the control mesh
   // Called at the start of each stage of each deformable (stage name, deformable index,
   // deformable count); may be empty. Runs on the calling thread.
   std::function<void(const char* stage, size_t deformable, size_t count)> progress;
@@ -22,7 +22,7 @@ struct BakeOptions {
 // What the bake measured, per deformable, for the summary line and the tests.
 struct DeformableReport {
   int mesh = -1;
-  size_t dense_vertices = 0;     // original glTF vertices of its primitives
+  size_t dense_vertices = 0;  // original glTF vertices of its primitives
   size_t dense_triangles = 0;
   size_t welded_vertices = 0;
   size_t control_vertices = 0;
@@ -30,10 +30,10 @@ struct DeformableReport {
   bool decimated = false;
   int subdivision_level = 0;
   size_t refined_triangles = 0;
-  bool flat = false;             // no volume: zero-radius skeleton S = M (see bake_model.cpp)
-  double skeleton_inside = 0;    // fraction of skeletal vertices inside the control mesh
-  double residual_share = 0;     // share of dense vertices with tangential residual > 1e-3·diag
-  double rest_error = 0;         // max rest-pose reconstruction error / diagonal (float path)
+  bool flat = false;           // no volume: zero-radius skeleton S = M (see bake_model.cpp)
+  double skeleton_inside = 0;  // fraction of skeletal vertices inside the control mesh
+  double residual_share = 0;   // share of dense vertices with tangential residual > 1e-3·diag
+  double rest_error = 0;       // max rest-pose reconstruction error / diagonal (float path)
 };
 
 struct BakeResult {

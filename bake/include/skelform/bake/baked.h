@@ -13,11 +13,11 @@
 namespace skelform::bake {
 
 struct BakedDeformable {
-  int mesh = -1;                   // glTF mesh index
-  int node = -1;                   // skinned node instancing the mesh (-1: none)
-  int skin = -1;                   // glTF skin (-1: unskinned, handles only)
-  std::vector<int> primitives;     // baked primitive indices of the mesh, in binding order
-  uint32_t dense_vertex_count = 0; // sum of the primitives' POSITION counts
+  int mesh = -1;                    // glTF mesh index
+  int node = -1;                    // skinned node instancing the mesh (-1: none)
+  int skin = -1;                    // glTF skin (-1: unskinned, handles only)
+  std::vector<int> primitives;      // baked primitive indices of the mesh, in binding order
+  uint32_t dense_vertex_count = 0;  // sum of the primitives' POSITION counts
 
   // Control mesh (decimated, tangent-flowed) and its skeletal mesh: M = S + d·N.
   std::vector<glm::vec3> control_positions;

@@ -19,13 +19,13 @@ namespace skelform::bake {
 // One entry per dense vertex, in the order of the dense positions given to the binder; the
 // layout of the extension's "binding" group (runtime/src/extension_layout.h).
 struct DssBinding {
-  std::vector<uint32_t> triangle;       // refined triangle the vertex is bound to
-  std::vector<glm::vec2> barycentric;   // (b1, b2) in that triangle, b0 = 1 - b1 - b2, all in [0, 1]
-  std::vector<float> displacement;      // h along the interpolated unit normal n(b), model units
-  std::vector<glm::vec2> residual;      // tangential residual along the frame's (tangent, bitangent)
-  size_t residual_vertices = 0;         // vertices with |residual| > 1e-3 · diagonal
-  double max_rest_error = 0.0;          // max |evaluated − original| / diagonal, evaluated in
-                                        // float through dss_frame.h (DESIGN.md "rest error")
+  std::vector<uint32_t> triangle;      // refined triangle the vertex is bound to
+  std::vector<glm::vec2> barycentric;  // (b1, b2) in that triangle, b0 = 1 - b1 - b2, all in [0, 1]
+  std::vector<float> displacement;     // h along the interpolated unit normal n(b), model units
+  std::vector<glm::vec2> residual;     // tangential residual along the frame's (tangent, bitangent)
+  size_t residual_vertices = 0;        // vertices with |residual| > 1e-3 · diagonal
+  double max_rest_error = 0.0;         // max |evaluated − original| / diagonal, evaluated in
+                                       // float through dss_frame.h (DESIGN.md "rest error")
 };
 
 // Binds every dense vertex to the refined mesh (positions in float as apply_stencils
@@ -42,7 +42,7 @@ struct DssBinding {
 // positions, out-of-range indices or a non-finite dense position.
 DssBinding bind_dense_vertices(const std::vector<glm::vec3>& refined_positions,
                                const std::vector<glm::vec3>& refined_normals,
-                               const std::vector<Triangle>& refined_triangles,
-                               const std::vector<Vec3>& dense_positions, double diagonal);
+                               const std::vector<Triangle>& refined_triangles, const std::vector<Vec3>& dense_positions,
+                               double diagonal);
 
 }  // namespace skelform::bake

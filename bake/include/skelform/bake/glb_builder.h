@@ -62,10 +62,11 @@ class GlbBuilder {
   }
   // A triangle index accessor (unsigned int) in an element-array view of its own.
   int add_indices(const std::vector<uint32_t>& indices) {
-    return add_accessor({{"bufferView", add_view(indices.data(), indices.size() * sizeof(uint32_t), kElementArrayBuffer)},
-                         {"componentType", kUnsignedInt},
-                         {"count", indices.size()},
-                         {"type", "SCALAR"}});
+    return add_accessor(
+        {{"bufferView", add_view(indices.data(), indices.size() * sizeof(uint32_t), kElementArrayBuffer)},
+         {"componentType", kUnsignedInt},
+         {"count", indices.size()},
+         {"type", "SCALAR"}});
   }
 
   // The GLB file: buffer 0 is the BIN chunk (glb_container). The builder is spent afterwards.

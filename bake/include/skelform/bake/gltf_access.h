@@ -49,8 +49,7 @@ inline constexpr size_t kMaxJsonNesting = 64;
 // on inconsistent data is an invalid_input Error naming the file. Files that require a
 // geometry-compression extension (Draco, meshopt, mesh quantization) are refused as
 // unsupported.
-void parse_model(const std::vector<unsigned char>& bytes, bool binary, const std::string& name,
-                 tinygltf::Model& model);
+void parse_model(const std::vector<unsigned char>& bytes, bool binary, const std::string& name, tinygltf::Model& model);
 
 // The number of elements of accessor `accessor`, after checking the index and count >= 1.
 size_t accessor_count(const tinygltf::Model& model, int accessor, const std::string& what);

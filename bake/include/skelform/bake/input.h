@@ -19,15 +19,15 @@ namespace skelform::bake {
 
 // Where a run of original vertices came from.
 struct InputPrimitive {
-  int mesh = -1;            // glTF mesh index; -1 for OBJ/PLY/OFF
-  int primitive = -1;       // glTF primitive index within the mesh; -1 for OBJ/PLY/OFF
-  int node = -1;            // first glTF node instancing the mesh (the skinned node); -1 if none
-  int skin = -1;            // glTF skin of that node; -1 if unskinned
+  int mesh = -1;                // glTF mesh index; -1 for OBJ/PLY/OFF
+  int primitive = -1;           // glTF primitive index within the mesh; -1 for OBJ/PLY/OFF
+  int node = -1;                // first glTF node instancing the mesh (the skinned node); -1 if none
+  int skin = -1;                // glTF skin of that node; -1 if unskinned
   uint32_t first_vertex = 0;    // offset of this primitive's vertices in InputMesh::positions
   uint32_t vertex_count = 0;    // number of vertices of this primitive (glTF POSITION count)
   uint32_t first_triangle = 0;  // offset of this primitive's triangles in InputMesh::triangles
   uint32_t triangle_count = 0;
-  bool indexed = false;         // the glTF primitive has an index buffer
+  bool indexed = false;  // the glTF primitive has an index buffer
 };
 
 // All original vertices of every loaded primitive, concatenated in file order (mesh order,

@@ -22,10 +22,10 @@ struct TriangleMesh {
 
 // Why a bake step refused its input. The CLI maps each kind to an exit code (see --help).
 enum class ErrorKind {
-  usage,         // bad command-line arguments
-  io,            // a file could not be read or written
-  invalid_input, // the input file is malformed or its data is invalid (indices, NaN, ...)
-  unsupported,   // valid input that the baker does not handle (e.g. points/lines primitives)
+  usage,          // bad command-line arguments
+  io,             // a file could not be read or written
+  invalid_input,  // the input file is malformed or its data is invalid (indices, NaN, ...)
+  unsupported,    // valid input that the baker does not handle (e.g. points/lines primitives)
 };
 
 // The one exception type the baker library throws for bad input. Internal invariant

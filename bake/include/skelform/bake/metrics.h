@@ -34,9 +34,9 @@ class TriangleTree {
   TriangleTree& operator=(TriangleTree&&) noexcept;
 
   struct Hit {
-    double distance = 0;   // Euclidean distance to the closest point
-    uint32_t triangle = 0; // index of the closest triangle
-    Vec3 point{};          // the closest point
+    double distance = 0;    // Euclidean distance to the closest point
+    uint32_t triangle = 0;  // index of the closest triangle
+    Vec3 point{};           // the closest point
   };
   // Requires a mesh with at least one triangle.
   Hit closest(const Vec3& query) const;

@@ -13,8 +13,7 @@ namespace skelform::bake {
 // `cylinder_length` (from z = -L/2 to +L/2) with hemispherical caps. `segments` around the
 // axis (>= 3), `cylinder_rings` edge loops spacing the cylinder (>= 1 interval), `cap_rings`
 // latitude intervals per hemisphere (>= 1). Outward-oriented, watertight, genus 0.
-TriangleMesh make_capsule(double radius, double cylinder_length, int segments, int cylinder_rings,
-                          int cap_rings);
+TriangleMesh make_capsule(double radius, double cylinder_length, int segments, int cylinder_rings, int cap_rings);
 
 // UV sphere of `radius` at the origin: `slices` around z (>= 3), `stacks` from pole to pole
 // (>= 2). Outward-oriented, watertight, one vertex per pole.
@@ -26,8 +25,8 @@ TriangleMesh make_icosphere(double radius, int subdivisions);
 
 // Parameters of the procedural test character.
 struct CharacterOptions {
-  double height = 1.8;      // total height along +y (glTF up), feet at y = 0
-  double resolution = 0.02; // sampling step of the implicit surface, in the same unit
+  double height = 1.8;       // total height along +y (glTF up), feet at y = 0
+  double resolution = 0.02;  // sampling step of the implicit surface, in the same unit
 };
 
 // The project's own test character: torso, head, two arms and two legs as smoothly blended
@@ -47,13 +46,13 @@ TriangleMesh make_test_character(const CharacterOptions& options = {});
 // Side suffixes ".L"/".R" are the character's own left/right: it faces +z with y up, so its
 // left is +x. Units are those of CharacterOptions::height.
 struct CharacterJoint {
-  std::string name;     // unique, e.g. "pelvis", "upper_arm.L"
-  int parent;           // index of the parent joint in the list, -1 for the root (index 0);
-                        // a parent always comes before its children
-  Vec3 head;            // where the bone starts: its pivot in the rest pose
-  Vec3 tail;            // where the bone ends (the child's head for chain bones)
-  double head_radius;   // capsule radius at `head` (> 0)
-  double tail_radius;   // capsule radius at `tail` (> 0); the radius varies linearly between
+  std::string name;    // unique, e.g. "pelvis", "upper_arm.L"
+  int parent;          // index of the parent joint in the list, -1 for the root (index 0);
+                       // a parent always comes before its children
+  Vec3 head;           // where the bone starts: its pivot in the rest pose
+  Vec3 tail;           // where the bone ends (the child's head for chain bones)
+  double head_radius;  // capsule radius at `head` (> 0)
+  double tail_radius;  // capsule radius at `tail` (> 0); the radius varies linearly between
 };
 
 // The rig of make_test_character(options), root first, in this order: pelvis, spine, chest,

@@ -53,8 +53,8 @@ struct RigPose {
 // reproduces it closely).
 struct RigAnimation {
   std::string name;
-  std::vector<double> times;    // seconds, strictly increasing, starting at 0
-  std::vector<RigPose> poses;   // one per time
+  std::vector<double> times;   // seconds, strictly increasing, starting at 0
+  std::vector<RigPose> poses;  // one per time
 };
 
 // World transform of every joint (forward kinematics down the parent chain): the joint's
@@ -73,11 +73,11 @@ std::vector<RigAnimation> test_character_animations(const std::vector<CharacterJ
 
 // Everything the rigged character's glTF holds.
 struct RiggedCharacter {
-  TriangleMesh mesh;                    // make_test_character(options)
-  std::vector<Vec3> normals;            // vertex_normals(mesh)
-  std::vector<CharacterJoint> joints;   // test_character_joints(options)
-  std::vector<SkinInfluence> skin;      // character_skin_weights(...)
-  std::vector<RigAnimation> animations; // test_character_animations(joints)
+  TriangleMesh mesh;                     // make_test_character(options)
+  std::vector<Vec3> normals;             // vertex_normals(mesh)
+  std::vector<CharacterJoint> joints;    // test_character_joints(options)
+  std::vector<SkinInfluence> skin;       // character_skin_weights(...)
+  std::vector<RigAnimation> animations;  // test_character_animations(joints)
 };
 
 // The character of `options`, rigged and animated. Deterministic.

@@ -19,11 +19,11 @@ namespace skelform::bake {
 // extension_layout.h): refined vertex v = sum over s in [offsets[v], offsets[v+1]) of
 // weights[s] * control[indices[s]].
 struct SubdivisionStencils {
-  uint32_t level = 0;                    // uniform refinement level k (0 = the control mesh)
-  uint32_t control_vertex_count = 0;     // vertices of the control mesh the stencils read
-  std::vector<uint32_t> offsets;         // refined vertex count + 1 entries, offsets[0] = 0
-  std::vector<uint32_t> indices;         // control vertex of each stencil entry
-  std::vector<float> weights;            // weight of each stencil entry; a stencil sums to 1
+  uint32_t level = 0;                       // uniform refinement level k (0 = the control mesh)
+  uint32_t control_vertex_count = 0;        // vertices of the control mesh the stencils read
+  std::vector<uint32_t> offsets;            // refined vertex count + 1 entries, offsets[0] = 0
+  std::vector<uint32_t> indices;            // control vertex of each stencil entry
+  std::vector<float> weights;               // weight of each stencil entry; a stencil sums to 1
   std::vector<Triangle> refined_triangles;  // faces of level k, orientation of their parents
 
   size_t refined_vertex_count() const { return offsets.empty() ? 0 : offsets.size() - 1; }
@@ -48,8 +48,7 @@ int choose_subdivision_level(size_t control_triangles, size_t dense_triangles);
 // accumulating weights[s] * control[indices[s]] in stencil order: exactly what the runtime
 // does every frame, so the baker's rest evaluation and the runtime's agree to the bit.
 // `control` must hold control_vertex_count positions (else Error(invalid_input)).
-std::vector<glm::vec3> apply_stencils(const SubdivisionStencils& stencils,
-                                      const std::vector<glm::vec3>& control);
+std::vector<glm::vec3> apply_stencils(const SubdivisionStencils& stencils, const std::vector<glm::vec3>& control);
 
 // The refined mesh's vertex normals the DSS binding displaces along (dss_frame.h, extension
 // version 2.1): the area-weighted normal sums of the control mesh given by `control`

@@ -16,9 +16,9 @@ struct WeldedMesh {
   // degenerate ones (two equal welded corners) and exact duplicates (same vertex set, any
   // orientation; the first is kept).
   TriangleMesh mesh;
-  std::vector<uint32_t> welded_of_original;   // size = original vertex count
-  std::vector<uint32_t> original_of_welded;   // first original vertex of each welded vertex
-  std::vector<uint32_t> original_triangle;    // for each kept triangle, its index in the input
+  std::vector<uint32_t> welded_of_original;  // size = original vertex count
+  std::vector<uint32_t> original_of_welded;  // first original vertex of each welded vertex
+  std::vector<uint32_t> original_triangle;   // for each kept triangle, its index in the input
   size_t degenerate_triangles_removed = 0;
   size_t duplicate_triangles_removed = 0;
 };
