@@ -1,6 +1,6 @@
 #!/bin/sh
 # CTest bench_smoke: skelform-bench --json --smoke must print one JSON line per mesh (2) with
-# every method's figure. Skips (77) without the shared data.
+# every method's figure, and --crowd 4 --smoke its line. Skips (77) without the shared data.
 #
 #   bench_smoke.sh SKELFORM_BENCH DATA_DIR
 BENCH=$1 DATA=${SKELFORM_DATA_DIR:-$2}
@@ -15,3 +15,8 @@ if [ "$lines" -ne 2 ]; then
   echo "FAIL: expected 2 JSON lines, got $lines"
   exit 1
 fi
+# --crowd: one JSON line with both figures.
+crowd=$("$BENCH" --crowd 4 --smoke) || { echo "FAIL: skelform-bench --crowd exited $?"; exit 1; }
+echo "$crowd"
+printf '%s\n' "$crowd" | grep -q '^{"crowd": 4, "mesh": "CesiumMan_loop1", "vertices": [0-9]*, "threads": [0-9]*, "frames": 3, "ms_per_frame": {"skelform": [0-9.]*, "lbs_optimised": [0-9.]*}}$' \
+  || { echo "FAIL: unexpected --crowd output"; exit 1; }

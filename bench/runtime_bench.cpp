@@ -19,6 +19,9 @@
 // around at the end (samples/common/gltf_animation.h).
 //
 //   skelform-bench [Google Benchmark flags]     Google Benchmark tables
+//   skelform-bench --crowd N [--smoke]          N instances of CesiumMan_loop1 (~10K vertices),
+//                                               each on its own pose, over every core: wall ms
+//                                               of a whole frame, skelform and lbs_optimised
 //   skelform-bench --markdown [--runs N]        the README's speed table (CPU time, the median
 //                                               of N runs, ratios against lbs_optimised)
 //   skelform-bench --json [--smoke] [--cpu] [--runs N]  one JSON line per mesh:
@@ -55,6 +58,8 @@
 #include <stdexcept>
 #include <string>
 #include <thread>
+#include <mutex>
+#include <exception>
 #include <vector>
 
 namespace {
@@ -392,6 +397,158 @@ int run_json(bool smoke, bool cpu_time, int runs, bool markdown) {
   return 0;
 }
 
+// --crowd N: N instances of one asset (CesiumMan Loop-subdivided once, ~10K vertices), each
+// on its own pose (the animation's frames, staggered per instance), evaluated frame after
+// frame over `threads` worker threads (an engine's job system: each takes every threads-th
+// instance). Reports the median wall time of a whole frame (all N) for skelform (defaults)
+// and for lbs_optimised on the same threads. Instances are independent objects on one shared
+// asset (skelform.h: assets are immutable and shareable; an instance belongs to one thread at
+// a time).
+class Crowd {
+ public:
+  Crowd(size_t count, unsigned threads) : threads_(threads) {
+    const std::string baked = skelform::bench::cesium_man_baked(1).string();
+    const std::string unbaked = skelform::bench::cesium_man_subdivided(1).string();
+    char message[512] = "";
+    sf_load_options load_options{};
+    load_options.error_message = message;
+    load_options.error_message_capacity = sizeof(message);
+    if (sf_asset_load_file(baked.c_str(), &load_options, &asset_) != SF_OK)
+      throw std::runtime_error(baked + ": " + message);
+    check(sf_asset_deformable_info(asset_, 0, &info_), "sf_asset_deformable_info");
+    for (uint32_t p = 0; p < info_.primitive_count; ++p) {
+      sf_primitive_info primitive{};
+      check(sf_asset_primitive_info(asset_, 0, p, &primitive), "sf_asset_primitive_info");
+      primitives_.push_back(primitive);
+    }
+    const skelform::samples::GltfAnimation gltf = skelform::samples::GltfAnimation::load_file(unbaked);
+    const skelform::samples::AnimationInfo& animation = gltf.animations().at(0);
+    const int frames = static_cast<int>(animation.duration() * kFramesPerSecond) + 1;
+    for (int i = 0; i < frames; ++i)
+      poses_.push_back(gltf.joint_matrices(static_cast<size_t>(info_.skin), 0, animation.start + i / kFramesPerSecond));
+    const skelform::bake::InputMesh input = skelform::bake::load_mesh(unbaked);
+    const size_t sets = input.joint_sets.size();
+    std::vector<uint16_t> joints(input.positions.size() * 4 * sets);
+    std::vector<float> weights(joints.size());
+    for (size_t v = 0; v < input.positions.size(); ++v)
+      for (size_t s = 0; s < sets; ++s)
+        for (size_t k = 0; k < 4; ++k) {
+          joints[(v * sets + s) * 4 + k] = input.joint_sets[s][v][k];
+          weights[(v * sets + s) * 4 + k] = input.weight_sets[s][v][k];
+        }
+    members_.resize(count);
+    std::vector<float> identity(16 * size_t{info_.joint_count}, 0.0f);
+    for (uint32_t j = 0; j < info_.joint_count; ++j)
+      for (size_t k = 0; k < 4; ++k) identity[16 * size_t{j} + 5 * k] = 1.0f;
+    for (Member& m : members_) {
+      check(sf_instance_create(asset_, 0, &m.instance), "sf_instance_create");
+      m.positions.resize(3 * size_t{info_.vertex_count});
+      m.normals.resize(3 * size_t{info_.vertex_count});
+      m.vertex_buffer.resize(8 * size_t{info_.vertex_count});
+    }
+    // Rest normals for the optimised LBS: the runtime's rest pose (identity matrices).
+    Member& first = members_[0];
+    check(sf_instance_set_joint_matrices(first.instance, identity.data(), info_.joint_count, 0),
+          "sf_instance_set_joint_matrices", first.instance);
+    sf_eval_options options{};
+    options.method = SF_METHOD_LBS;
+    check(sf_instance_evaluate(first.instance, &options), "sf_instance_evaluate", first.instance);
+    write(first);
+    lbs_ = std::make_unique<FastLbs>(first.positions, first.normals, joints, weights, 4 * sets);
+  }
+  Crowd(const Crowd&) = delete;
+  Crowd& operator=(const Crowd&) = delete;
+  ~Crowd() {
+    for (Member& m : members_) sf_instance_destroy(m.instance);
+    sf_asset_destroy(asset_);
+  }
+
+  size_t vertex_count() const { return info_.vertex_count; }
+
+  // Wall milliseconds of one frame of every instance, skelform (lbs = false) or lbs_optimised.
+  double frame_ms(size_t frame, bool lbs) {
+    const auto start = std::chrono::steady_clock::now();
+    std::vector<std::thread> workers;
+    std::exception_ptr failure;
+    std::mutex failure_mutex;
+    for (unsigned t = 0; t < threads_; ++t)
+      workers.emplace_back([&, t] {
+        try {
+          for (size_t i = t; i < members_.size(); i += threads_) {
+            Member& m = members_[i];
+            const std::vector<float>& pose = poses_[(frame + 7 * i) % poses_.size()];
+            if (lbs) {
+              lbs_->skin(pose.data(), m.vertex_buffer.data(), 8);
+              continue;
+            }
+            check(sf_instance_set_joint_matrices(m.instance, pose.data(), info_.joint_count, 0),
+                  "sf_instance_set_joint_matrices", m.instance);
+            check(sf_instance_evaluate(m.instance, nullptr), "sf_instance_evaluate", m.instance);
+            write(m);
+          }
+        } catch (...) {
+          std::lock_guard<std::mutex> lock(failure_mutex);
+          failure = std::current_exception();
+        }
+      });
+    for (std::thread& w : workers) w.join();
+    if (failure) std::rethrow_exception(failure);
+    return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+  }
+
+ private:
+  struct Member {
+    sf_instance* instance = nullptr;
+    std::vector<float> positions, normals, vertex_buffer;
+  };
+
+  void write(Member& m) const {
+    for (const sf_primitive_info& primitive : primitives_) {
+      sf_vertex_output output{};
+      output.positions = m.positions.data() + 3 * size_t{primitive.first_vertex};
+      output.normals = m.normals.data() + 3 * size_t{primitive.first_vertex};
+      output.vertex_capacity = primitive.vertex_count;
+      check(sf_instance_write(m.instance, uint32_t(&primitive - primitives_.data()), &output), "sf_instance_write",
+            m.instance);
+    }
+  }
+
+  unsigned threads_;
+  sf_asset* asset_ = nullptr;
+  sf_deformable_info info_{};
+  std::vector<sf_primitive_info> primitives_;
+  std::vector<std::vector<float>> poses_;
+  std::vector<Member> members_;
+  std::unique_ptr<FastLbs> lbs_;
+};
+
+int run_crowd(size_t count, bool smoke) {
+  if (!skelform::bench::cesium_man_path()) {
+    std::fprintf(stderr,
+                 "skelform-bench: skipped: CesiumMan/CesiumMan.glb not found under %s (set SKELFORM_DATA_DIR)\n",
+                 skelform::bench::data_dir().string().c_str());
+    return 0;
+  }
+  const unsigned threads = std::max(1u, std::thread::hardware_concurrency());
+  Crowd crowd(count, threads);
+  const size_t frames = smoke ? 3 : 31;
+  for (size_t f = 0; f < 3; ++f) crowd.frame_ms(f, false), crowd.frame_ms(f, true);  // warm-up
+  std::vector<double> skelform, lbs;
+  for (size_t f = 0; f < frames; ++f) {
+    skelform.push_back(crowd.frame_ms(f, false));
+    lbs.push_back(crowd.frame_ms(f, true));
+  }
+  auto median = [](std::vector<double>& v) {
+    std::sort(v.begin(), v.end());
+    return v[v.size() / 2];
+  };
+  std::printf(
+      "{\"crowd\": %zu, \"mesh\": \"CesiumMan_loop1\", \"vertices\": %zu, \"threads\": %u, \"frames\": %zu, "
+      "\"ms_per_frame\": {\"skelform\": %.3f, \"lbs_optimised\": %.3f}}\n",
+      count, crowd.vertex_count(), threads, frames, median(skelform), median(lbs));
+  return 0;
+}
+
 void register_benchmarks() {
   for (const MeshCase& mesh_case : kMeshes)
     for (Method method : kMethods) {
@@ -420,6 +577,7 @@ void register_benchmarks() {
 int main(int argc, char** argv) {
   bool json = false, markdown = false, smoke = false, cpu_time = false;
   int runs = 1;
+  long crowd = 0;
   std::vector<char*> passed{argv[0]};
   for (int i = 1; i < argc; ++i) {
     if (std::strcmp(argv[i], "--json") == 0)
@@ -438,10 +596,24 @@ int main(int argc, char** argv) {
         return 1;
       }
       runs = int(n);
+    } else if (std::strcmp(argv[i], "--crowd") == 0 && i + 1 < argc) {
+      char* end = nullptr;
+      crowd = std::strtol(argv[++i], &end, 10);
+      if (*end != '\0' || crowd < 1 || crowd > 10000) {
+        std::fprintf(stderr, "skelform-bench: error: --crowd takes 1 to 10000 instances, got %s\n", argv[i]);
+        return 1;
+      }
     } else
       passed.push_back(argv[i]);
   }
   try {
+    if (crowd > 0) {
+      if (passed.size() > 1 || json || markdown || cpu_time || runs != 1) {
+        std::fprintf(stderr, "skelform-bench: error: --crowd N takes only --smoke\n");
+        return 1;
+      }
+      return run_crowd(size_t(crowd), smoke);
+    }
     if (json || markdown) {
       if (passed.size() > 1) {
         std::fprintf(stderr,
