@@ -124,90 +124,130 @@ void check(sf_result result, const char* call, const sf_instance* instance = nul
                              (instance ? std::string(" ") + sf_instance_last_error(instance) : std::string()));
 }
 
-// One mesh ready to evaluate: the baked asset, an instance per runtime method, Delta Mush,
-// the poses and the output buffers.
-class Scene {
- public:
-  explicit Scene(const MeshCase& mesh_case) : name_(mesh_case.name) {
-    const std::string baked = skelform::bench::cesium_man_baked(mesh_case.loop_levels).string();
-    const std::string unbaked = skelform::bench::cesium_man_subdivided(mesh_case.loop_levels).string();
+// A baked CesiumMan (Loop-subdivided `loop_levels` times) loaded through the C API, its
+// animation's poses at 30 fps, and the skin of its original vertices (the baker's loader gives
+// them in sf_instance_write's order: primitives concatenated in file order).
+struct Model {
+  explicit Model(int loop_levels) {
+    const std::string baked = skelform::bench::cesium_man_baked(loop_levels).string();
+    const std::string unbaked = skelform::bench::cesium_man_subdivided(loop_levels).string();
     char message[512] = "";
     sf_load_options load_options{};
     load_options.error_message = message;
     load_options.error_message_capacity = sizeof(message);
-    if (sf_asset_load_file(baked.c_str(), &load_options, &asset_) != SF_OK)
+    if (sf_asset_load_file(baked.c_str(), &load_options, &asset) != SF_OK)
       throw std::runtime_error(baked + ": " + message);
-    if (sf_asset_deformable_count(asset_) != 1) throw std::runtime_error(baked + ": expected one deformable");
-    check(sf_asset_deformable_info(asset_, 0, &info_), "sf_asset_deformable_info");
-    for (uint32_t p = 0; p < info_.primitive_count; ++p) {
+    if (sf_asset_deformable_count(asset) != 1) throw std::runtime_error(baked + ": expected one deformable");
+    check(sf_asset_deformable_info(asset, 0, &info), "sf_asset_deformable_info");
+    for (uint32_t p = 0; p < info.primitive_count; ++p) {
       sf_primitive_info primitive{};
-      check(sf_asset_primitive_info(asset_, 0, p, &primitive), "sf_asset_primitive_info");
-      primitives_.push_back(primitive);
+      check(sf_asset_primitive_info(asset, 0, p, &primitive), "sf_asset_primitive_info");
+      primitives.push_back(primitive);
     }
-    positions_.resize(3 * size_t{info_.vertex_count});
-    normals_.resize(3 * size_t{info_.vertex_count});
-    for (Method method : kMethods)
-      if (through_api(method)) check(sf_instance_create(asset_, 0, &instances_[size_t(method)]), "sf_instance_create");
-    sf_instance* contacts = instances_[static_cast<size_t>(Method::skelform_contacts)];
-    check(sf_instance_set_contacts(contacts, 1), "sf_instance_set_contacts", contacts);
-
     // Poses: the original CesiumMan's animation (the subdivided file carries the same skin).
     const skelform::samples::GltfAnimation gltf = skelform::samples::GltfAnimation::load_file(unbaked);
     if (gltf.animations().empty()) throw std::runtime_error(unbaked + " has no animation");
     const skelform::samples::AnimationInfo& animation = gltf.animations()[0];
     const int frames = static_cast<int>(animation.duration() * kFramesPerSecond) + 1;
-    for (int i = 0; i < frames; ++i) {
-      const double time = animation.start + i / kFramesPerSecond;
-      poses_.push_back(gltf.joint_matrices(static_cast<size_t>(info_.skin), 0, time));
-    }
-
-    // Delta Mush on the same original vertices (the baker's loader gives them in the same
-    // order as sf_instance_write: primitives concatenated in file order).
-    const skelform::bake::InputMesh input = skelform::bake::load_mesh(unbaked);
-    if (input.positions.size() != info_.vertex_count)
+    for (int i = 0; i < frames; ++i)
+      poses.push_back(gltf.joint_matrices(static_cast<size_t>(info.skin), 0, animation.start + i / kFramesPerSecond));
+    input = skelform::bake::load_mesh(unbaked);
+    if (input.positions.size() != info.vertex_count)
       throw std::runtime_error(unbaked + ": vertex count differs between the loader and the runtime");
-    std::vector<float> rest(3 * input.positions.size());
-    for (size_t v = 0; v < input.positions.size(); ++v)
-      for (int c = 0; c < 3; ++c) rest[3 * v + c] = static_cast<float>(input.positions[v][c]);
-    std::vector<uint32_t> triangles;
-    for (const auto& t : input.triangles) triangles.insert(triangles.end(), t.begin(), t.end());
     const size_t sets = input.joint_sets.size();
-    std::vector<uint16_t> joints(input.positions.size() * 4 * sets);
-    std::vector<float> weights(joints.size());
+    influences = 4 * sets;
+    joints.resize(input.positions.size() * influences);
+    weights.resize(joints.size());
     for (size_t v = 0; v < input.positions.size(); ++v)
       for (size_t s = 0; s < sets; ++s)
         for (size_t k = 0; k < 4; ++k) {
           joints[(v * sets + s) * 4 + k] = input.joint_sets[s][v][k];
           weights[(v * sets + s) * 4 + k] = input.weight_sets[s][v][k];
         }
-    delta_mush_ = std::make_unique<DeltaMush>(rest, triangles, joints, weights, 4 * sets);
+  }
+  Model(const Model&) = delete;
+  Model& operator=(const Model&) = delete;
+  ~Model() { sf_asset_destroy(asset); }
 
-    // The optimised LBS on the same vertices; its rest normals are the runtime's rest pose
-    // (identity joint matrices give the stored mesh).
-    std::vector<float> identity(16 * size_t{info_.joint_count}, 0.0f);
-    for (uint32_t j = 0; j < info_.joint_count; ++j)
-      for (int k = 0; k < 4; ++k) identity[16 * size_t{j} + 5 * size_t(k)] = 1.0f;
-    evaluate_api(Method::lbs, identity);
-    lbs_optimised_ = std::make_unique<FastLbs>(positions_, normals_, joints, weights, 4 * sets);
-    vertex_buffer_.resize(kVertexStride * size_t{info_.vertex_count});
+  // sf_instance_write of every primitive into whole-mesh arrays (3 floats per vertex).
+  void write(sf_instance* instance, float* positions, float* normals) const {
+    for (uint32_t p = 0; p < primitives.size(); ++p) {
+      sf_vertex_output output{};
+      output.positions = positions + 3 * size_t{primitives[p].first_vertex};
+      output.normals = normals + 3 * size_t{primitives[p].first_vertex};
+      output.vertex_capacity = primitives[p].vertex_count;
+      check(sf_instance_write(instance, p, &output), "sf_instance_write", instance);
+    }
+  }
+
+  // The optimised LBS on these vertices. Its rest normals are the runtime's rest pose
+  // (identity joint matrices give the stored mesh), evaluated through `scratch` with LBS.
+  std::unique_ptr<FastLbs> make_fast_lbs(sf_instance* scratch) const {
+    std::vector<float> identity(16 * size_t{info.joint_count}, 0.0f);
+    for (uint32_t j = 0; j < info.joint_count; ++j)
+      for (size_t k = 0; k < 4; ++k) identity[16 * size_t{j} + 5 * k] = 1.0f;
+    check(sf_instance_set_joint_matrices(scratch, identity.data(), info.joint_count, 0),
+          "sf_instance_set_joint_matrices", scratch);
+    sf_eval_options options{};
+    options.method = SF_METHOD_LBS;
+    check(sf_instance_evaluate(scratch, &options), "sf_instance_evaluate", scratch);
+    std::vector<float> positions(3 * size_t{info.vertex_count}), normals(positions.size());
+    write(scratch, positions.data(), normals.data());
+    return std::make_unique<FastLbs>(positions, normals, joints, weights, influences);
+  }
+
+  sf_asset* asset = nullptr;
+  sf_deformable_info info{};
+  std::vector<sf_primitive_info> primitives;
+  std::vector<std::vector<float>> poses;
+  skelform::bake::InputMesh input;
+  std::vector<uint16_t> joints;  // `influences` per vertex
+  std::vector<float> weights;
+  size_t influences = 0;
+};
+
+// One mesh ready to evaluate: the model, an instance per runtime method, Delta Mush, the
+// optimised LBS and the output buffers.
+class Scene {
+ public:
+  explicit Scene(const MeshCase& mesh_case) : name_(mesh_case.name), model_(mesh_case.loop_levels) {
+    const sf_deformable_info& info = model_.info;
+    positions_.resize(3 * size_t{info.vertex_count});
+    normals_.resize(3 * size_t{info.vertex_count});
+    for (Method method : kMethods)
+      if (through_api(method))
+        check(sf_instance_create(model_.asset, 0, &instances_[size_t(method)]), "sf_instance_create");
+    sf_instance* contacts = instances_[static_cast<size_t>(Method::skelform_contacts)];
+    check(sf_instance_set_contacts(contacts, 1), "sf_instance_set_contacts", contacts);
+
+    // Delta Mush on the same original vertices.
+    const skelform::bake::InputMesh& input = model_.input;
+    std::vector<float> rest(3 * input.positions.size());
+    for (size_t v = 0; v < input.positions.size(); ++v)
+      for (int c = 0; c < 3; ++c) rest[3 * v + c] = static_cast<float>(input.positions[v][c]);
+    std::vector<uint32_t> triangles;
+    for (const auto& t : input.triangles) triangles.insert(triangles.end(), t.begin(), t.end());
+    delta_mush_ = std::make_unique<DeltaMush>(rest, triangles, model_.joints, model_.weights, model_.influences);
+
+    lbs_optimised_ = model_.make_fast_lbs(instances_[static_cast<size_t>(Method::lbs)]);
+    vertex_buffer_.resize(kVertexStride * size_t{info.vertex_count});
     check_lbs_optimised();
   }
   Scene(const Scene&) = delete;
   Scene& operator=(const Scene&) = delete;
   ~Scene() {
     for (sf_instance* instance : instances_) sf_instance_destroy(instance);
-    sf_asset_destroy(asset_);
   }
 
   const std::string& name() const { return name_; }
-  size_t vertex_count() const { return info_.vertex_count; }
-  size_t pose_count() const { return poses_.size(); }
+  size_t vertex_count() const { return model_.info.vertex_count; }
+  size_t pose_count() const { return model_.poses.size(); }
 
   // One frame of `method` at pose `pose`: what an engine pays per character per frame.
   void evaluate(Method method, size_t pose) {
-    const std::vector<float>& matrices = poses_[pose % poses_.size()];
+    const std::vector<float>& matrices = model_.poses[pose % model_.poses.size()];
     if (method == Method::delta_mush) {
-      delta_mush_->deform(matrices.data(), info_.joint_count, positions_.data());
+      delta_mush_->deform(matrices.data(), model_.info.joint_count, positions_.data());
       return;
     }
     if (method == Method::lbs_optimised) {
@@ -224,44 +264,38 @@ class Scene {
 
   void evaluate_api(Method method, const std::vector<float>& matrices) {
     sf_instance* instance = instances_[static_cast<size_t>(method)];
-    check(sf_instance_set_joint_matrices(instance, matrices.data(), info_.joint_count, 0),
+    check(sf_instance_set_joint_matrices(instance, matrices.data(), model_.info.joint_count, 0),
           "sf_instance_set_joint_matrices", instance);
     sf_eval_options options{};  // defaults (fairing as the runtime ships it), incremental
     options.method = method == Method::lbs ? SF_METHOD_LBS : method == Method::dqs ? SF_METHOD_DQS : SF_METHOD_SKELFORM;
     if (method == Method::skelform_unfaired) options.fairing_flags = SF_FAIR_OFF;
     if (method == Method::skelform_semi_implicit) options.fairing_flags = SF_FAIR_SEMI_IMPLICIT;
     check(sf_instance_evaluate(instance, &options), "sf_instance_evaluate", instance);
-    for (uint32_t p = 0; p < primitives_.size(); ++p) {
-      sf_vertex_output output{};
-      output.positions = positions_.data() + 3 * size_t{primitives_[p].first_vertex};
-      output.normals = normals_.data() + 3 * size_t{primitives_[p].first_vertex};
-      output.vertex_capacity = primitives_[p].vertex_count;
-      check(sf_instance_write(instance, p, &output), "sf_instance_write", instance);
-    }
+    model_.write(instance, positions_.data(), normals_.data());
   }
 
   // The optimised LBS gives SF_METHOD_LBS's result: on the first poses, the largest
   // difference of a position (in diagonals of the rest mesh) and of a normal must stay under
   // 1e-6 and 1e-5 (float rounding: the two sum in different orders, one with FMA).
   void check_lbs_optimised() {
+    const size_t n = model_.info.vertex_count;
     glm::vec3 lo(std::numeric_limits<float>::max()), hi(-std::numeric_limits<float>::max());
-    for (size_t v = 0; v < info_.vertex_count; ++v)
+    for (const auto& p : model_.input.positions)
       for (int c = 0; c < 3; ++c) {
-        lo[c] = std::min(lo[c], positions_[3 * v + size_t(c)]);
-        hi[c] = std::max(hi[c], positions_[3 * v + size_t(c)]);
+        lo[c] = std::min(lo[c], float(p[c]));
+        hi[c] = std::max(hi[c], float(p[c]));
       }
     const double diagonal = double(glm::length(hi - lo));
     double position_error = 0.0, normal_error = 0.0;
-    for (size_t pose = 0; pose < std::min<size_t>(poses_.size(), 8); ++pose) {
-      evaluate_api(Method::lbs, poses_[pose]);
-      lbs_optimised_->skin(poses_[pose].data(), vertex_buffer_.data(), kVertexStride);
-      for (size_t v = 0; v < info_.vertex_count; ++v)
+    for (size_t pose = 0; pose < std::min<size_t>(model_.poses.size(), 8); ++pose) {
+      evaluate_api(Method::lbs, model_.poses[pose]);
+      lbs_optimised_->skin(model_.poses[pose].data(), vertex_buffer_.data(), kVertexStride);
+      for (size_t v = 0; v < n; ++v)
         for (size_t c = 0; c < 3; ++c) {
-          position_error = std::max(
-              position_error,
-              std::fabs(double(vertex_buffer_[kVertexStride * v + c]) - double(positions_[3 * v + c])) / diagonal);
-          normal_error = std::max(
-              normal_error, std::fabs(double(vertex_buffer_[kVertexStride * v + 3 + c]) - double(normals_[3 * v + c])));
+          const float* out = vertex_buffer_.data() + kVertexStride * v;
+          position_error =
+              std::max(position_error, std::fabs(double(out[c]) - double(positions_[3 * v + c])) / diagonal);
+          normal_error = std::max(normal_error, std::fabs(double(out[3 + c]) - double(normals_[3 * v + c])));
         }
     }
     std::fprintf(stderr,
@@ -273,11 +307,8 @@ class Scene {
   }
 
   std::string name_;
-  sf_asset* asset_ = nullptr;
-  sf_deformable_info info_{};
-  std::vector<sf_primitive_info> primitives_;
+  Model model_;
   std::array<sf_instance*, kMethods.size()> instances_{};  // indexed by Method (null where not through_api)
-  std::vector<std::vector<float>> poses_;
   std::unique_ptr<DeltaMush> delta_mush_;
   std::unique_ptr<FastLbs> lbs_optimised_;
   std::vector<float> positions_, normals_;
@@ -406,64 +437,23 @@ int run_json(bool smoke, bool cpu_time, int runs, bool markdown) {
 // a time).
 class Crowd {
  public:
-  Crowd(size_t count, unsigned threads) : threads_(threads) {
-    const std::string baked = skelform::bench::cesium_man_baked(1).string();
-    const std::string unbaked = skelform::bench::cesium_man_subdivided(1).string();
-    char message[512] = "";
-    sf_load_options load_options{};
-    load_options.error_message = message;
-    load_options.error_message_capacity = sizeof(message);
-    if (sf_asset_load_file(baked.c_str(), &load_options, &asset_) != SF_OK)
-      throw std::runtime_error(baked + ": " + message);
-    check(sf_asset_deformable_info(asset_, 0, &info_), "sf_asset_deformable_info");
-    for (uint32_t p = 0; p < info_.primitive_count; ++p) {
-      sf_primitive_info primitive{};
-      check(sf_asset_primitive_info(asset_, 0, p, &primitive), "sf_asset_primitive_info");
-      primitives_.push_back(primitive);
-    }
-    const skelform::samples::GltfAnimation gltf = skelform::samples::GltfAnimation::load_file(unbaked);
-    const skelform::samples::AnimationInfo& animation = gltf.animations().at(0);
-    const int frames = static_cast<int>(animation.duration() * kFramesPerSecond) + 1;
-    for (int i = 0; i < frames; ++i)
-      poses_.push_back(gltf.joint_matrices(static_cast<size_t>(info_.skin), 0, animation.start + i / kFramesPerSecond));
-    const skelform::bake::InputMesh input = skelform::bake::load_mesh(unbaked);
-    const size_t sets = input.joint_sets.size();
-    std::vector<uint16_t> joints(input.positions.size() * 4 * sets);
-    std::vector<float> weights(joints.size());
-    for (size_t v = 0; v < input.positions.size(); ++v)
-      for (size_t s = 0; s < sets; ++s)
-        for (size_t k = 0; k < 4; ++k) {
-          joints[(v * sets + s) * 4 + k] = input.joint_sets[s][v][k];
-          weights[(v * sets + s) * 4 + k] = input.weight_sets[s][v][k];
-        }
+  Crowd(size_t count, unsigned threads) : threads_(threads), model_(1) {
     members_.resize(count);
-    std::vector<float> identity(16 * size_t{info_.joint_count}, 0.0f);
-    for (uint32_t j = 0; j < info_.joint_count; ++j)
-      for (size_t k = 0; k < 4; ++k) identity[16 * size_t{j} + 5 * k] = 1.0f;
     for (Member& m : members_) {
-      check(sf_instance_create(asset_, 0, &m.instance), "sf_instance_create");
-      m.positions.resize(3 * size_t{info_.vertex_count});
-      m.normals.resize(3 * size_t{info_.vertex_count});
-      m.vertex_buffer.resize(8 * size_t{info_.vertex_count});
+      check(sf_instance_create(model_.asset, 0, &m.instance), "sf_instance_create");
+      m.positions.resize(3 * size_t{model_.info.vertex_count});
+      m.normals.resize(3 * size_t{model_.info.vertex_count});
+      m.vertex_buffer.resize(8 * size_t{model_.info.vertex_count});
     }
-    // Rest normals for the optimised LBS: the runtime's rest pose (identity matrices).
-    Member& first = members_[0];
-    check(sf_instance_set_joint_matrices(first.instance, identity.data(), info_.joint_count, 0),
-          "sf_instance_set_joint_matrices", first.instance);
-    sf_eval_options options{};
-    options.method = SF_METHOD_LBS;
-    check(sf_instance_evaluate(first.instance, &options), "sf_instance_evaluate", first.instance);
-    write(first);
-    lbs_ = std::make_unique<FastLbs>(first.positions, first.normals, joints, weights, 4 * sets);
+    lbs_ = model_.make_fast_lbs(members_[0].instance);
   }
   Crowd(const Crowd&) = delete;
   Crowd& operator=(const Crowd&) = delete;
   ~Crowd() {
     for (Member& m : members_) sf_instance_destroy(m.instance);
-    sf_asset_destroy(asset_);
   }
 
-  size_t vertex_count() const { return info_.vertex_count; }
+  size_t vertex_count() const { return model_.info.vertex_count; }
 
   // Wall milliseconds of one frame of every instance, skelform (lbs = false) or lbs_optimised.
   double frame_ms(size_t frame, bool lbs) {
@@ -476,15 +466,15 @@ class Crowd {
         try {
           for (size_t i = t; i < members_.size(); i += threads_) {
             Member& m = members_[i];
-            const std::vector<float>& pose = poses_[(frame + 7 * i) % poses_.size()];
+            const std::vector<float>& pose = model_.poses[(frame + 7 * i) % model_.poses.size()];
             if (lbs) {
               lbs_->skin(pose.data(), m.vertex_buffer.data(), 8);
               continue;
             }
-            check(sf_instance_set_joint_matrices(m.instance, pose.data(), info_.joint_count, 0),
+            check(sf_instance_set_joint_matrices(m.instance, pose.data(), model_.info.joint_count, 0),
                   "sf_instance_set_joint_matrices", m.instance);
             check(sf_instance_evaluate(m.instance, nullptr), "sf_instance_evaluate", m.instance);
-            write(m);
+            model_.write(m.instance, m.positions.data(), m.normals.data());
           }
         } catch (...) {
           std::lock_guard<std::mutex> lock(failure_mutex);
@@ -502,22 +492,8 @@ class Crowd {
     std::vector<float> positions, normals, vertex_buffer;
   };
 
-  void write(Member& m) const {
-    for (const sf_primitive_info& primitive : primitives_) {
-      sf_vertex_output output{};
-      output.positions = m.positions.data() + 3 * size_t{primitive.first_vertex};
-      output.normals = m.normals.data() + 3 * size_t{primitive.first_vertex};
-      output.vertex_capacity = primitive.vertex_count;
-      check(sf_instance_write(m.instance, uint32_t(&primitive - primitives_.data()), &output), "sf_instance_write",
-            m.instance);
-    }
-  }
-
   unsigned threads_;
-  sf_asset* asset_ = nullptr;
-  sf_deformable_info info_{};
-  std::vector<sf_primitive_info> primitives_;
-  std::vector<std::vector<float>> poses_;
+  Model model_;
   std::vector<Member> members_;
   std::unique_ptr<FastLbs> lbs_;
 };
