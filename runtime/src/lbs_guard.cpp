@@ -113,9 +113,10 @@ void guard_intersections(const Deformable& d, const ContactMesh& mesh, const Den
       return;
     }
     // Boxes at x, slot by slot, and the first round's triangles: those with a moved corner.
+    const size_t stride = h.slot_stride();
     for (uint32_t i = 0; i < mesh.triangle_count; ++i) {
       const uint32_t t = h.order[i];
-      const uint32_t* c = tri + 3 * size_t(t);
+      const uint32_t c[3] = {h.corners[i], h.corners[stride + i], h.corners[2 * stride + i]};  // slot order
       float box[6];
       triangle_box(ws.positions[c[0]], ws.positions[c[1]], ws.positions[c[2]], box);
       ws.boxes.set(i, box);
@@ -166,8 +167,9 @@ void guard_intersections(const Deformable& d, const ContactMesh& mesh, const Den
         // From here on, in this evaluation, the corners only travel towards L (λ only falls):
         // each triangle's reach is its box at x now and at L.
         ws.reach_ready = true;
+        const size_t stride = h.slot_stride();
         for (uint32_t i = 0; i < mesh.triangle_count; ++i) {
-          const uint32_t* c = tri + 3 * size_t(h.order[i]);
+          const uint32_t c[3] = {h.corners[i], h.corners[stride + i], h.corners[2 * stride + i]};
           float box[6], at_l[6];
           ws.boxes.get(i, box);
           triangle_box(lbs.positions[rep[c[0]]], lbs.positions[rep[c[1]]], lbs.positions[rep[c[2]]], at_l);

@@ -10,6 +10,10 @@
 #if defined(__SSE2__)
 #  include <emmintrin.h>
 #endif
+#if (defined(__x86_64__) || defined(__i386__)) && (defined(__GNUC__) || defined(__clang__))
+#  define SKELFORM_HIERARCHY_AVX2 1
+#  include <immintrin.h>
+#endif
 
 #include <glm/common.hpp>
 #include <glm/vec3.hpp>
@@ -192,42 +196,131 @@ void query_triangle_hierarchy(const TriangleHierarchy& h, const float* node_boxe
 
 namespace detail {
 
-// Bit j set: lane j of the leaf at `first` (slot space, kLeafTriangles lanes) holds a
-// triangle whose box (`boxes`) meets `box` and that shares no corner with `c` (3 vertex
-// indices). Lanes past the leaf are not masked here.
-inline uint32_t leaf_candidates(const SlotBoxes& boxes, const uint32_t* corners, size_t stride, size_t first,
-                                const float* box, const uint32_t* c) {
-  const float* lo_x = boxes.planes.data() + first;
-  const size_t bs = boxes.stride;
-  uint32_t mask = 0;
+// The leaf-pair kernel: for each of the `count_a` triangles in slots first_a.. (leaf A),
+// masks[i] gets bit j when lane j of the leaf at first_b (B, kLeafTriangles lanes; lanes past
+// B are not masked here) holds a triangle whose box meets triangle i's and that shares no
+// corner with it; masks[i] is 0 when triangle i's box misses B's node box.
+struct LeafPairInput {
+  const float* planes;      // SlotBoxes::planes
+  size_t box_stride;        // SlotBoxes::stride
+  const uint32_t* corners;  // TriangleHierarchy::corners
+  size_t corner_stride;     // TriangleHierarchy::slot_stride()
+};
+using LeafPairKernel = void (*)(const LeafPairInput& in, uint32_t first_a, uint32_t count_a, uint32_t first_b,
+                                const float* node_box_b, uint32_t* masks);
+
+inline bool box_meets_node(const LeafPairInput& in, uint32_t i, const float* node) {
+  const float* p = in.planes + i;
+  const size_t bs = in.box_stride;
+  return p[0] <= node[3] && node[0] <= p[3 * bs] && p[bs] <= node[4] && node[1] <= p[4 * bs] && p[2 * bs] <= node[5] &&
+         node[2] <= p[5 * bs];
+}
+
 #if defined(__SSE2__)
-  for (size_t g = 0; g < kLeafTriangles; g += 4) {
-    __m128 meet = _mm_and_ps(_mm_cmple_ps(_mm_set1_ps(box[0]), _mm_loadu_ps(lo_x + 3 * bs + g)),
-                             _mm_cmple_ps(_mm_loadu_ps(lo_x + g), _mm_set1_ps(box[3])));
-    meet = _mm_and_ps(meet, _mm_cmple_ps(_mm_set1_ps(box[1]), _mm_loadu_ps(lo_x + 4 * bs + g)));
-    meet = _mm_and_ps(meet, _mm_cmple_ps(_mm_loadu_ps(lo_x + bs + g), _mm_set1_ps(box[4])));
-    meet = _mm_and_ps(meet, _mm_cmple_ps(_mm_set1_ps(box[2]), _mm_loadu_ps(lo_x + 5 * bs + g)));
-    meet = _mm_and_ps(meet, _mm_cmple_ps(_mm_loadu_ps(lo_x + 2 * bs + g), _mm_set1_ps(box[5])));
-    __m128i shared = _mm_setzero_si128();
-    for (size_t k = 0; k < 3; ++k) {
-      const __m128i lane = _mm_loadu_si128(reinterpret_cast<const __m128i*>(corners + k * stride + first + g));
-      for (size_t j = 0; j < 3; ++j)
-        shared = _mm_or_si128(shared, _mm_cmpeq_epi32(lane, _mm_set1_epi32(int32_t(c[j]))));
+inline void leaf_pair_sse2(const LeafPairInput& in, uint32_t first_a, uint32_t count_a, uint32_t first_b,
+                           const float* node_box_b, uint32_t* masks) {
+  const size_t bs = in.box_stride, cs = in.corner_stride;
+  const float* lo_x = in.planes + first_b;
+  for (uint32_t i = 0; i < count_a; ++i) {
+    const uint32_t a = first_a + i;
+    masks[i] = 0;
+    if (!box_meets_node(in, a, node_box_b)) continue;
+    const float* pa = in.planes + a;
+    const __m128 lx = _mm_set1_ps(pa[0]), ly = _mm_set1_ps(pa[bs]), lz = _mm_set1_ps(pa[2 * bs]);
+    const __m128 hx = _mm_set1_ps(pa[3 * bs]), hy = _mm_set1_ps(pa[4 * bs]), hz = _mm_set1_ps(pa[5 * bs]);
+    const __m128i c0 = _mm_set1_epi32(int32_t(in.corners[a])), c1 = _mm_set1_epi32(int32_t(in.corners[cs + a])),
+                  c2 = _mm_set1_epi32(int32_t(in.corners[2 * cs + a]));
+    uint32_t mask = 0;
+    for (size_t g = 0; g < kLeafTriangles; g += 4) {
+      __m128 meet =
+          _mm_and_ps(_mm_cmple_ps(lx, _mm_loadu_ps(lo_x + 3 * bs + g)), _mm_cmple_ps(_mm_loadu_ps(lo_x + g), hx));
+      meet = _mm_and_ps(meet, _mm_cmple_ps(ly, _mm_loadu_ps(lo_x + 4 * bs + g)));
+      meet = _mm_and_ps(meet, _mm_cmple_ps(_mm_loadu_ps(lo_x + bs + g), hy));
+      meet = _mm_and_ps(meet, _mm_cmple_ps(lz, _mm_loadu_ps(lo_x + 5 * bs + g)));
+      meet = _mm_and_ps(meet, _mm_cmple_ps(_mm_loadu_ps(lo_x + 2 * bs + g), hz));
+      __m128i shared = _mm_setzero_si128();
+      for (size_t k = 0; k < 3; ++k) {
+        const __m128i lane = _mm_loadu_si128(reinterpret_cast<const __m128i*>(in.corners + k * cs + first_b + g));
+        shared = _mm_or_si128(shared, _mm_or_si128(_mm_cmpeq_epi32(lane, c0),
+                                                   _mm_or_si128(_mm_cmpeq_epi32(lane, c1), _mm_cmpeq_epi32(lane, c2))));
+      }
+      mask |= uint32_t(_mm_movemask_ps(_mm_andnot_ps(_mm_castsi128_ps(shared), meet))) << g;
     }
-    const __m128 keep = _mm_andnot_ps(_mm_castsi128_ps(shared), meet);
-    mask |= uint32_t(_mm_movemask_ps(keep)) << g;
+    masks[i] = mask;
   }
-#else
-  for (size_t g = 0; g < kLeafTriangles; ++g) {
-    const bool meet = box[0] <= lo_x[3 * bs + g] && lo_x[g] <= box[3] && box[1] <= lo_x[4 * bs + g] &&
-                      lo_x[bs + g] <= box[4] && box[2] <= lo_x[5 * bs + g] && lo_x[2 * bs + g] <= box[5];
-    bool shared = false;
-    for (size_t k = 0; k < 3; ++k)
-      for (size_t j = 0; j < 3; ++j) shared |= corners[k * stride + first + g] == c[j];
-    mask |= uint32_t(meet && !shared) << g;
-  }
+}
 #endif
-  return mask;
+
+#if defined(SKELFORM_HIERARCHY_AVX2)
+__attribute__((target("avx2"))) inline void leaf_pair_avx2(const LeafPairInput& in, uint32_t first_a, uint32_t count_a,
+                                                           uint32_t first_b, const float* node_box_b, uint32_t* masks) {
+  const size_t bs = in.box_stride, cs = in.corner_stride;
+  const float* lo_x = in.planes + first_b;
+  for (uint32_t i = 0; i < count_a; ++i) {
+    const uint32_t a = first_a + i;
+    masks[i] = 0;
+    if (!box_meets_node(in, a, node_box_b)) continue;
+    const float* pa = in.planes + a;
+    const __m256 lx = _mm256_set1_ps(pa[0]), ly = _mm256_set1_ps(pa[bs]), lz = _mm256_set1_ps(pa[2 * bs]);
+    const __m256 hx = _mm256_set1_ps(pa[3 * bs]), hy = _mm256_set1_ps(pa[4 * bs]), hz = _mm256_set1_ps(pa[5 * bs]);
+    const __m256i c0 = _mm256_set1_epi32(int32_t(in.corners[a])), c1 = _mm256_set1_epi32(int32_t(in.corners[cs + a])),
+                  c2 = _mm256_set1_epi32(int32_t(in.corners[2 * cs + a]));
+    uint32_t mask = 0;
+    for (size_t g = 0; g < kLeafTriangles; g += 8) {
+      __m256 meet = _mm256_and_ps(_mm256_cmp_ps(lx, _mm256_loadu_ps(lo_x + 3 * bs + g), _CMP_LE_OQ),
+                                  _mm256_cmp_ps(_mm256_loadu_ps(lo_x + g), hx, _CMP_LE_OQ));
+      meet = _mm256_and_ps(meet, _mm256_cmp_ps(ly, _mm256_loadu_ps(lo_x + 4 * bs + g), _CMP_LE_OQ));
+      meet = _mm256_and_ps(meet, _mm256_cmp_ps(_mm256_loadu_ps(lo_x + bs + g), hy, _CMP_LE_OQ));
+      meet = _mm256_and_ps(meet, _mm256_cmp_ps(lz, _mm256_loadu_ps(lo_x + 5 * bs + g), _CMP_LE_OQ));
+      meet = _mm256_and_ps(meet, _mm256_cmp_ps(_mm256_loadu_ps(lo_x + 2 * bs + g), hz, _CMP_LE_OQ));
+      __m256i shared = _mm256_setzero_si256();
+      for (size_t k = 0; k < 3; ++k) {
+        const __m256i lane = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(in.corners + k * cs + first_b + g));
+        shared = _mm256_or_si256(
+            shared, _mm256_or_si256(_mm256_cmpeq_epi32(lane, c0),
+                                    _mm256_or_si256(_mm256_cmpeq_epi32(lane, c1), _mm256_cmpeq_epi32(lane, c2))));
+      }
+      mask |= uint32_t(_mm256_movemask_ps(_mm256_andnot_ps(_mm256_castsi256_ps(shared), meet))) << g;
+    }
+    masks[i] = mask;
+  }
+}
+#endif
+
+inline void leaf_pair_portable(const LeafPairInput& in, uint32_t first_a, uint32_t count_a, uint32_t first_b,
+                               const float* node_box_b, uint32_t* masks) {
+  const size_t bs = in.box_stride, cs = in.corner_stride;
+  const float* p = in.planes;
+  for (uint32_t i = 0; i < count_a; ++i) {
+    const uint32_t a = first_a + i;
+    masks[i] = 0;
+    if (!box_meets_node(in, a, node_box_b)) continue;
+    for (uint32_t g = 0; g < kLeafTriangles; ++g) {
+      const size_t b = first_b + g;
+      const bool meet = p[a] <= p[3 * bs + b] && p[b] <= p[3 * bs + a] && p[bs + a] <= p[4 * bs + b] &&
+                        p[bs + b] <= p[4 * bs + a] && p[2 * bs + a] <= p[5 * bs + b] && p[2 * bs + b] <= p[5 * bs + a];
+      bool shared = false;
+      for (size_t k = 0; k < 3; ++k)
+        for (size_t j = 0; j < 3; ++j) shared |= in.corners[k * cs + b] == in.corners[j * cs + a];
+      masks[i] |= uint32_t(meet && !shared) << g;
+    }
+  }
+}
+
+// The fastest kernel this CPU runs: AVX2 where the CPU has it (checked once), else SSE2
+// (x86-64's baseline), else the portable loop. All give the same masks.
+inline LeafPairKernel leaf_pair_kernel() {
+#if defined(SKELFORM_HIERARCHY_AVX2)
+  static const LeafPairKernel chosen = [] {
+    __builtin_cpu_init();
+    return __builtin_cpu_supports("avx2") ? LeafPairKernel(&leaf_pair_avx2) : LeafPairKernel(&leaf_pair_sse2);
+  }();
+  return chosen;
+#elif defined(__SSE2__)
+  return &leaf_pair_sse2;
+#else
+  return &leaf_pair_portable;
+#endif
 }
 
 }  // namespace detail
@@ -254,22 +347,22 @@ void self_pairs_triangle_hierarchy(const TriangleHierarchy& h, const float* node
     }
     leaf_wanted[n] = lanes;
   }
-  const size_t stride = h.slot_stride();
-  const uint32_t* corners = h.corners.data();
-  // The triangle in slot i against the lanes of leaf node b set in `allowed`.
-  auto against_leaf = [&](uint32_t i, uint32_t b, uint32_t allowed) {
-    float box[6];
-    uint32_t c[3];
-    boxes.get(i, box);
-    for (size_t k = 0; k < 3; ++k) c[k] = corners[k * stride + i];
-    if (!hierarchy_boxes_meet(box, node_boxes + 6 * size_t(b))) return;
-    const uint32_t first = h.nodes[b].first;
-    uint32_t mask = detail::leaf_candidates(boxes, corners, stride, first, box, c) & allowed;
-    const uint32_t s = h.order[i];
-    while (mask) {
-      const uint32_t j = uint32_t(__builtin_ctz(mask));
-      mask &= mask - 1;
-      visit(s, h.order[first + j]);
+  const detail::LeafPairInput input{boxes.planes.data(), boxes.stride, h.corners.data(), h.slot_stride()};
+  const detail::LeafPairKernel kernel = detail::leaf_pair_kernel();
+  uint32_t masks[kLeafTriangles];
+  // Leaf a's triangles against the lanes of leaf b: lane j of triangle i's row when bit j of
+  // allowed(i) is set.
+  auto leaves = [&](uint32_t a, uint32_t b, auto&& allowed) {
+    const HierarchyNode na = h.nodes[a], nb = h.nodes[b];
+    kernel(input, na.first, na.count, nb.first, node_boxes + 6 * size_t(b), masks);
+    for (uint32_t i = 0; i < na.count; ++i) {
+      uint32_t mask = masks[i] & allowed(i);
+      const uint32_t s = h.order[na.first + i];
+      while (mask) {
+        const uint32_t j = uint32_t(__builtin_ctz(mask));
+        mask &= mask - 1;
+        visit(s, h.order[nb.first + j]);
+      }
     }
   };
   // A pair of nodes to compare; a == b: a node against itself.
@@ -285,11 +378,11 @@ void self_pairs_triangle_hierarchy(const TriangleHierarchy& h, const float* node
     const HierarchyNode na = h.nodes[p.a], nb = h.nodes[p.b];
     if (p.a == p.b) {
       if (na.count > 0) {
-        const uint32_t lanes = (1u << na.count) - 1u;
-        for (uint32_t i = 0; i + 1 < na.count; ++i) {
+        const uint32_t lanes = (1u << na.count) - 1u, want = leaf_wanted[p.a];
+        leaves(p.a, p.a, [&](uint32_t i) {
           const uint32_t later = lanes & ~((2u << i) - 1u);  // the lanes after i: each pair once
-          against_leaf(na.first + i, p.a, (leaf_wanted[p.a] >> i) & 1u ? later : later & leaf_wanted[p.a]);
-        }
+          return (want >> i) & 1u ? later : later & want;
+        });
       } else {
         stack[top++] = {na.first, na.first + 1};
         stack[top++] = {na.first + 1, na.first + 1};
@@ -299,9 +392,8 @@ void self_pairs_triangle_hierarchy(const TriangleHierarchy& h, const float* node
     }
     if (!hierarchy_boxes_meet(node_boxes + 6 * size_t(p.a), node_boxes + 6 * size_t(p.b))) continue;
     if (na.count > 0 && nb.count > 0) {
-      const uint32_t lanes = (1u << nb.count) - 1u;
-      for (uint32_t i = 0; i < na.count; ++i)
-        against_leaf(na.first + i, p.b, (leaf_wanted[p.a] >> i) & 1u ? lanes : lanes & leaf_wanted[p.b]);
+      const uint32_t lanes = (1u << nb.count) - 1u, want_a = leaf_wanted[p.a], want_b = leaf_wanted[p.b];
+      leaves(p.a, p.b, [&](uint32_t i) { return (want_a >> i) & 1u ? lanes : lanes & want_b; });
       continue;
     }
     // Descend the inner node; when both are, the one with the larger box.

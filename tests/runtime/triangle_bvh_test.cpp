@@ -10,8 +10,10 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <map>
 #include <random>
 #include <set>
+#include <string>
 #include <utility>
 #include <vector>
 
@@ -137,4 +139,55 @@ TEST_CASE("triangle hierarchy: the self-pair search finds what a brute-force loo
     for (uint8_t& w : wanted) w = random() % 2 == 0 ? 1 : 0;
     check_search(rest, now, tri, wanted);
   }
+}
+
+TEST_CASE("triangle hierarchy: every leaf-pair kernel gives the portable loop's masks") {
+  std::vector<glm::vec3> rest, now;
+  std::vector<uint32_t> tri;
+  grid(23, 1.3f, rest, now, tri);
+  const AllocatorRef allocator{};
+  const uint32_t n = uint32_t(tri.size() / 3);
+  const auto h = build_triangle_hierarchy(rest.data(), tri.data(), n, allocator);
+  std::vector<float> boxes;
+  boxes_of(now, tri, boxes);
+  SlotBoxes slot_boxes(allocator);
+  slot_boxes.resize(h);
+  for (uint32_t t = 0; t < n; ++t) slot_boxes.set(h.slot[t], &boxes[6 * size_t(t)]);
+  std::vector<float> node_boxes(6 * h.nodes.size());
+  refit_triangle_hierarchy(h, slot_boxes, node_boxes.data());
+  namespace detail = skelform::runtime::detail;
+  const detail::LeafPairInput input{slot_boxes.planes.data(), slot_boxes.stride, h.corners.data(), h.slot_stride()};
+  std::vector<std::pair<const char*, detail::LeafPairKernel>> kernels;
+#if defined(__SSE2__)
+  kernels.emplace_back("sse2", &detail::leaf_pair_sse2);
+#endif
+#if defined(SKELFORM_HIERARCHY_AVX2)
+  __builtin_cpu_init();
+  if (__builtin_cpu_supports("avx2")) kernels.emplace_back("avx2", &detail::leaf_pair_avx2);
+#endif
+  kernels.emplace_back("chosen", detail::leaf_pair_kernel());
+  std::map<std::string, size_t> mismatches;
+  size_t pairs = 0, bits = 0;
+  for (uint32_t a = 0; a < h.nodes.size(); ++a) {
+    if (h.nodes[a].count == 0) continue;
+    for (uint32_t b = 0; b < h.nodes.size(); ++b) {
+      if (h.nodes[b].count == 0) continue;
+      uint32_t expected[skelform::runtime::kLeafTriangles], got[skelform::runtime::kLeafTriangles];
+      detail::leaf_pair_portable(input, h.nodes[a].first, h.nodes[a].count, h.nodes[b].first,
+                                 node_boxes.data() + 6 * size_t(b), expected);
+      for (const auto& kernel : kernels) {
+        kernel.second(input, h.nodes[a].first, h.nodes[a].count, h.nodes[b].first, node_boxes.data() + 6 * size_t(b),
+                      got);
+        for (uint32_t i = 0; i < h.nodes[a].count; ++i) mismatches[kernel.first] += got[i] != expected[i] ? 1 : 0;
+      }
+      ++pairs;
+      for (uint32_t i = 0; i < h.nodes[a].count; ++i) bits += size_t(__builtin_popcount(expected[i]));
+    }
+  }
+  for (const auto& kernel : kernels) {
+    INFO(kernel.first);
+    CHECK(mismatches[kernel.first] == 0);
+  }
+  CHECK(pairs > 100);
+  CHECK(bits > 1000);  // the masks are not all empty
 }
