@@ -183,10 +183,33 @@ void query_triangle_hierarchy(const TriangleHierarchy& h, const float* node_boxe
     if (!hierarchy_boxes_meet(box, node_boxes + 6 * size_t(n))) continue;
     const HierarchyNode node = h.nodes[n];
     if (node.count > 0) {
+#if defined(__SSE2__)
+      // The leaf's lanes four at a time (lanes past the leaf are masked off).
+      uint32_t mask = 0;
+      const float* lo_x = p + node.first;
+      const __m128 lx = _mm_set1_ps(box[0]), ly = _mm_set1_ps(box[1]), lz = _mm_set1_ps(box[2]);
+      const __m128 hx = _mm_set1_ps(box[3]), hy = _mm_set1_ps(box[4]), hz = _mm_set1_ps(box[5]);
+      for (uint32_t g = 0; g < node.count; g += 4) {
+        __m128 meet =
+            _mm_and_ps(_mm_cmple_ps(lx, _mm_loadu_ps(lo_x + 3 * bs + g)), _mm_cmple_ps(_mm_loadu_ps(lo_x + g), hx));
+        meet = _mm_and_ps(meet, _mm_cmple_ps(ly, _mm_loadu_ps(lo_x + 4 * bs + g)));
+        meet = _mm_and_ps(meet, _mm_cmple_ps(_mm_loadu_ps(lo_x + bs + g), hy));
+        meet = _mm_and_ps(meet, _mm_cmple_ps(lz, _mm_loadu_ps(lo_x + 5 * bs + g)));
+        meet = _mm_and_ps(meet, _mm_cmple_ps(_mm_loadu_ps(lo_x + 2 * bs + g), hz));
+        mask |= uint32_t(_mm_movemask_ps(meet)) << g;
+      }
+      mask &= (1u << node.count) - 1u;
+      while (mask) {
+        const uint32_t j = uint32_t(__builtin_ctz(mask));
+        mask &= mask - 1;
+        visit(h.order[node.first + j]);
+      }
+#else
       for (uint32_t i = node.first; i < node.first + node.count; ++i)
         if (box[0] <= p[3 * bs + i] && p[i] <= box[3] && box[1] <= p[4 * bs + i] && p[bs + i] <= box[4] &&
             box[2] <= p[5 * bs + i] && p[2 * bs + i] <= box[5])
           visit(h.order[i]);
+#endif
     } else {
       stack[top++] = node.first + 1;
       stack[top++] = node.first;

@@ -21,6 +21,7 @@ using skelform::runtime::AllocatorRef;
 using skelform::runtime::Array;
 using skelform::runtime::build_triangle_hierarchy;
 using skelform::runtime::CallbackAllocator;
+using skelform::runtime::query_triangle_hierarchy;
 using skelform::runtime::refit_triangle_hierarchy;
 using skelform::runtime::self_pairs_triangle_hierarchy;
 using skelform::runtime::SlotBoxes;
@@ -190,4 +191,39 @@ TEST_CASE("triangle hierarchy: every leaf-pair kernel gives the portable loop's 
   }
   CHECK(pairs > 100);
   CHECK(bits > 1000);  // the masks are not all empty
+}
+
+TEST_CASE("triangle hierarchy: a box query finds what a brute-force loop finds") {
+  std::vector<glm::vec3> rest, now;
+  std::vector<uint32_t> tri;
+  grid(23, 1.3f, rest, now, tri);
+  const AllocatorRef allocator{};
+  const uint32_t n = uint32_t(tri.size() / 3);
+  const auto h = build_triangle_hierarchy(rest.data(), tri.data(), n, allocator);
+  std::vector<float> boxes;
+  boxes_of(now, tri, boxes);
+  SlotBoxes slot_boxes(allocator);
+  slot_boxes.resize(h);
+  for (uint32_t t = 0; t < n; ++t) slot_boxes.set(h.slot[t], &boxes[6 * size_t(t)]);
+  std::vector<float> node_boxes(6 * h.nodes.size());
+  refit_triangle_hierarchy(h, slot_boxes, node_boxes.data());
+  size_t found_total = 0, mismatched = 0;
+  for (uint32_t q = 0; q < n; q += 7) {
+    const float* box = &boxes[6 * size_t(q)];
+    std::set<uint32_t> found, expected;
+    size_t visits = 0;
+    query_triangle_hierarchy(h, node_boxes.data(), slot_boxes, box, [&](uint32_t t) {
+      found.insert(t);
+      ++visits;
+    });
+    for (uint32_t t = 0; t < n; ++t) {
+      const float* b = &boxes[6 * size_t(t)];
+      if (box[0] <= b[3] && b[0] <= box[3] && box[1] <= b[4] && b[1] <= box[4] && box[2] <= b[5] && b[2] <= box[5])
+        expected.insert(t);
+    }
+    mismatched += found != expected || visits != found.size() ? 1 : 0;  // each triangle once
+    found_total += found.size();
+  }
+  CHECK(mismatched == 0);
+  CHECK(found_total > 1000);
 }
