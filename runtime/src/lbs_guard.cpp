@@ -6,6 +6,8 @@
 #include "triangle_bvh.h"
 #include "triangle_intersection.h"
 
+#include <glm/common.hpp>
+
 #include <algorithm>
 #include <cmath>
 
@@ -24,11 +26,9 @@ bool boxes_meet(const float* a, const float* b) {
   return a[0] <= b[3] && b[0] <= a[3] && a[1] <= b[4] && b[1] <= a[4] && a[2] <= b[5] && b[2] <= a[5];
 }
 
-void triangle_box(const glm::vec3& p0, const glm::vec3& p1, const glm::vec3& p2, float* b) {
-  for (int k = 0; k < 3; ++k) {
-    b[k] = std::min({p0[k], p1[k], p2[k]});
-    b[3 + k] = std::max({p0[k], p1[k], p2[k]});
-  }
+inline void triangle_box(const glm::vec3& p0, const glm::vec3& p1, const glm::vec3& p2, float* b) {
+  const glm::vec3 lo = glm::min(glm::min(p0, p1), p2), hi = glm::max(glm::max(p0, p1), p2);
+  b[0] = lo.x, b[1] = lo.y, b[2] = lo.z, b[3] = hi.x, b[4] = hi.y, b[5] = hi.z;
 }
 
 }  // namespace
