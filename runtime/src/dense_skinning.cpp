@@ -9,9 +9,72 @@
 // usual engine shortcut, exact for rigid and uniformly scaled blends); tangent w is kept.
 #include "instance.h"
 
+#if defined(__SSE2__)
+#  include <emmintrin.h>
+#endif
+
 namespace skelform::runtime {
 
 namespace {
+
+#if defined(__SSE2__)
+// LBS four lanes at a time, bit for bit the portable kernel's result: the blend adds w·row in
+// influence order (the same multiply and add per element), the rows are transposed to columns
+// so that x' = ((c0·x + c1·y) + c2·z) + c3 per lane is transform_point's sum in its order, and
+// the normal's length is (x² + y²) + z² as glm::dot sums it. Tangents take the portable path.
+inline void store3(glm::vec3& out, __m128 v) {
+  _mm_storel_pi(reinterpret_cast<__m64*>(&out.x), v);
+  _mm_store_ss(&out.z, _mm_movehl_ps(v, v));
+}
+
+void skin_linear_sse2(const Deformable& d, const JointAffine* joints, bool with_normals, const DenseOutput& out) {
+  const uint32_t influences = d.influences;
+  const uint16_t* joint_index = d.dense_joints.data();
+  const float* weight = d.dense_weights.data();
+  const glm::vec3* rest_positions = d.rest_positions.data();
+  const glm::vec3* rest_normals = d.rest_normals.data();
+  for (const PrimitiveRecord& primitive : d.primitives) {
+    const uint32_t end = primitive.first_vertex + primitive.vertex_count;
+    const bool tangents = with_normals && primitive.has_tangents && out.tangents;
+    for (uint32_t v = primitive.first_vertex; v < end; ++v) {
+      const size_t first = size_t(v) * influences;
+      __m128 r0 = _mm_setzero_ps(), r1 = r0, r2 = r0;
+      for (uint32_t k = 0; k < influences; ++k) {
+        const __m128 w = _mm_set1_ps(weight[first + k]);
+        const float* m = joints[joint_index[first + k]].m;
+        r0 = _mm_add_ps(r0, _mm_mul_ps(w, _mm_loadu_ps(m)));
+        r1 = _mm_add_ps(r1, _mm_mul_ps(w, _mm_loadu_ps(m + 4)));
+        r2 = _mm_add_ps(r2, _mm_mul_ps(w, _mm_loadu_ps(m + 8)));
+      }
+      __m128 c0 = r0, c1 = r1, c2 = r2, c3 = _mm_setzero_ps();
+      _MM_TRANSPOSE4_PS(c0, c1, c2, c3);
+      const glm::vec3 p = rest_positions[v];
+      const __m128 xy = _mm_add_ps(_mm_mul_ps(c0, _mm_set1_ps(p.x)), _mm_mul_ps(c1, _mm_set1_ps(p.y)));
+      store3(out.positions[v], _mm_add_ps(_mm_add_ps(xy, _mm_mul_ps(c2, _mm_set1_ps(p.z))), c3));
+      if (with_normals) {
+        const glm::vec3 n = rest_normals[v];
+        const __m128 t = _mm_add_ps(_mm_add_ps(_mm_mul_ps(c0, _mm_set1_ps(n.x)), _mm_mul_ps(c1, _mm_set1_ps(n.y))),
+                                    _mm_mul_ps(c2, _mm_set1_ps(n.z)));
+        const __m128 sq = _mm_mul_ps(t, t);
+        const __m128 sum = _mm_add_ss(_mm_add_ss(sq, _mm_shuffle_ps(sq, sq, 1)), _mm_movehl_ps(sq, sq));
+        const float length = _mm_cvtss_f32(_mm_sqrt_ss(sum));
+        if (length > 1e-30f && std::isfinite(length))
+          store3(out.normals[v], _mm_div_ps(t, _mm_set1_ps(length)));
+        else
+          out.normals[v] = n;
+      }
+      if (tangents) {
+        alignas(16) float m[12];
+        _mm_store_ps(m, r0);
+        _mm_store_ps(m + 4, r1);
+        _mm_store_ps(m + 8, r2);
+        const glm::vec4 rest = d.rest_tangents[v];
+        out.tangents[v] = glm::vec4(normalize_or(transform_vector(m, glm::vec3(rest)), glm::vec3(rest)), rest.w);
+      }
+    }
+  }
+}
+#endif
 
 // One loop per blend so the per-vertex kernel is a direct call the compiler can inline.
 template <class Joint, void (*BlendFn)(const Joint*, const uint16_t*, const float*, uint32_t, float*)>
@@ -43,7 +106,11 @@ void skin_vertices(const Deformable& d, const Joint* joints, bool with_normals, 
 void dense_skinning(const Deformable& d, const JointTransforms& joints, Blend blend, bool with_normals,
                     const DenseOutput& out) {
   if (blend == Blend::linear)
+#if defined(__SSE2__)
+    skin_linear_sse2(d, joints.affine.data(), with_normals, out);
+#else
     skin_vertices<JointAffine, blend_affine>(d, joints.affine.data(), with_normals, out);
+#endif
   else
     skin_vertices<JointDualQuaternion, blend_dual_quaternion>(d, joints.dual_quaternion.data(), with_normals, out);
 }
