@@ -168,8 +168,11 @@ std::filesystem::path cesium_man_subdivided(int levels) {
 }
 
 std::filesystem::path cesium_man_baked(int levels) {
-  const std::filesystem::path source = cesium_man_subdivided(levels);
-  const std::filesystem::path path = cache_dir() / ("CesiumMan_loop" + std::to_string(levels) + ".skf.glb");
+  return baked_file(cesium_man_subdivided(levels), "CesiumMan_loop" + std::to_string(levels));
+}
+
+std::filesystem::path baked_file(const std::filesystem::path& source, const std::string& cache_name) {
+  const std::filesystem::path path = cache_dir() / (cache_name + ".skf.glb");
   if (!fresh(path)) {
     const skelform::bake::InputMesh input = skelform::bake::load_mesh(source.string());
     const skelform::bake::BakeResult result = skelform::bake::bake_model(input);

@@ -38,4 +38,8 @@ std::filesystem::path cesium_man_subdivided(int levels);
 // The baked (skelform-bake defaults) version of cesium_man_subdivided(levels). Cached likewise.
 std::filesystem::path cesium_man_baked(int levels);
 
+// `source` baked with skelform-bake's defaults, cached as `cache_name`.skf.glb; regenerated
+// when missing or older than the running executable.
+std::filesystem::path baked_file(const std::filesystem::path& source, const std::string& cache_name);
+
 }  // namespace skelform::bench

@@ -14,9 +14,10 @@
 //               difference, in diagonals) and the run fails if they differ by over 1e-6
 //   lbs, dqs    the runtime's baselines (SF_METHOD_LBS / SF_METHOD_DQS), same calls
 //   delta_mush  Delta Mush with 10 smoothing iterations (bench/delta_mush.h), positions only
-// on CesiumMan (3,273 vertices) and CesiumMan Loop-subdivided twice (~75K triangles), posed by
-// CesiumMan's own animation sampled at 30 fps, frame after frame as a game plays it, wrapping
-// around at the end (samples/common/gltf_animation.h).
+// on CesiumMan (3,273 vertices), CesiumMan Loop-subdivided twice (~75K triangles), each posed by
+// CesiumMan's own animation, and the Quaternius Horse (a quadruped as it ships, skipped when
+// the corpus is absent) galloping; sampled at 30 fps, frame after frame as a game plays it,
+// wrapping around at the end (samples/common/gltf_animation.h).
 //
 //   skelform-bench [Google Benchmark flags]     Google Benchmark tables
 //   skelform-bench --crowd N [--smoke]          N instances of CesiumMan_loop1 (~10K vertices),
@@ -60,6 +61,7 @@
 #include <thread>
 #include <mutex>
 #include <exception>
+#include <filesystem>
 #include <vector>
 
 namespace {
@@ -114,9 +116,19 @@ const char* method_name(Method method) {
 
 struct MeshCase {
   const char* name;
-  int loop_levels;  // Loop subdivisions of CesiumMan
+  int loop_levels;        // Loop subdivisions of CesiumMan, when data_file is null
+  const char* data_file;  // else this file of the data directory, as it ships
+  const char* animation;  // the animation played: the first whose name contains this, else the first
 };
-constexpr std::array<MeshCase, 2> kMeshes = {MeshCase{"CesiumMan", 0}, MeshCase{"CesiumMan_loop2", 2}};
+constexpr std::array<MeshCase, 3> kMeshes = {
+    MeshCase{"CesiumMan", 0, nullptr, ""}, MeshCase{"CesiumMan_loop2", 2, nullptr, ""},
+    MeshCase{"Horse", 0, "quaternius/animals_pack/Horse.glb", "Gallop"}};  // a Quaternius quadruped
+constexpr MeshCase kCrowdMesh{"CesiumMan_loop1", 1, nullptr, ""};
+
+// The case's file is there (the Quaternius corpus may be absent where CesiumMan is not).
+bool available(const MeshCase& mesh_case) {
+  return !mesh_case.data_file || std::filesystem::exists(skelform::bench::data_dir() / mesh_case.data_file);
+}
 
 void check(sf_result result, const char* call, const sf_instance* instance = nullptr) {
   if (result != SF_OK)
@@ -128,9 +140,11 @@ void check(sf_result result, const char* call, const sf_instance* instance = nul
 // animation's poses at 30 fps, and the skin of its original vertices (the baker's loader gives
 // them in sf_instance_write's order: primitives concatenated in file order).
 struct Model {
-  explicit Model(int loop_levels) {
-    const std::string baked = skelform::bench::cesium_man_baked(loop_levels).string();
-    const std::string unbaked = skelform::bench::cesium_man_subdivided(loop_levels).string();
+  explicit Model(const MeshCase& mesh_case) {
+    const std::string unbaked = mesh_case.data_file
+                                    ? (skelform::bench::data_dir() / mesh_case.data_file).string()
+                                    : skelform::bench::cesium_man_subdivided(mesh_case.loop_levels).string();
+    const std::string baked = skelform::bench::baked_file(unbaked, mesh_case.name).string();
     char message[512] = "";
     sf_load_options load_options{};
     load_options.error_message = message;
@@ -144,13 +158,17 @@ struct Model {
       check(sf_asset_primitive_info(asset, 0, p, &primitive), "sf_asset_primitive_info");
       primitives.push_back(primitive);
     }
-    // Poses: the original CesiumMan's animation (the subdivided file carries the same skin).
+    // Poses: the chosen animation at 30 fps (a subdivided CesiumMan carries the original's).
     const skelform::samples::GltfAnimation gltf = skelform::samples::GltfAnimation::load_file(unbaked);
     if (gltf.animations().empty()) throw std::runtime_error(unbaked + " has no animation");
-    const skelform::samples::AnimationInfo& animation = gltf.animations()[0];
+    size_t chosen = 0;
+    for (size_t a = gltf.animations().size(); a-- > 0;)
+      if (gltf.animations()[a].name.find(mesh_case.animation) != std::string::npos) chosen = a;
+    const skelform::samples::AnimationInfo& animation = gltf.animations()[chosen];
     const int frames = static_cast<int>(animation.duration() * kFramesPerSecond) + 1;
     for (int i = 0; i < frames; ++i)
-      poses.push_back(gltf.joint_matrices(static_cast<size_t>(info.skin), 0, animation.start + i / kFramesPerSecond));
+      poses.push_back(
+          gltf.joint_matrices(static_cast<size_t>(info.skin), chosen, animation.start + i / kFramesPerSecond));
     input = skelform::bake::load_mesh(unbaked);
     if (input.positions.size() != info.vertex_count)
       throw std::runtime_error(unbaked + ": vertex count differs between the loader and the runtime");
@@ -164,6 +182,14 @@ struct Model {
           joints[(v * sets + s) * 4 + k] = input.joint_sets[s][v][k];
           weights[(v * sets + s) * 4 + k] = input.weight_sets[s][v][k];
         }
+    // Weights summing to 1, as an engine's importer leaves them (exporters write sums a few
+    // 1e-5 off; the runtime normalises them too).
+    for (size_t v = 0; v < input.positions.size(); ++v) {
+      float sum = 0.0f;
+      for (size_t k = 0; k < influences; ++k) sum += weights[v * influences + k];
+      if (sum > 0.0f)
+        for (size_t k = 0; k < influences; ++k) weights[v * influences + k] /= sum;
+    }
   }
   Model(const Model&) = delete;
   Model& operator=(const Model&) = delete;
@@ -210,7 +236,7 @@ struct Model {
 // optimised LBS and the output buffers.
 class Scene {
  public:
-  explicit Scene(const MeshCase& mesh_case) : name_(mesh_case.name), model_(mesh_case.loop_levels) {
+  explicit Scene(const MeshCase& mesh_case) : name_(mesh_case.name), model_(mesh_case) {
     const sf_deformable_info& info = model_.info;
     positions_.resize(3 * size_t{info.vertex_count});
     normals_.resize(3 * size_t{info.vertex_count});
@@ -275,21 +301,21 @@ class Scene {
   }
 
   // The optimised LBS gives SF_METHOD_LBS's result: on the first poses, the largest
-  // difference of a position (in diagonals of the rest mesh) and of a normal must stay under
+  // difference of a position (in diagonals of the posed mesh) and of a normal must stay under
   // 1e-6 and 1e-5 (float rounding: the two sum in different orders, one with FMA).
   void check_lbs_optimised() {
     const size_t n = model_.info.vertex_count;
-    glm::vec3 lo(std::numeric_limits<float>::max()), hi(-std::numeric_limits<float>::max());
-    for (const auto& p : model_.input.positions)
-      for (int c = 0; c < 3; ++c) {
-        lo[c] = std::min(lo[c], float(p[c]));
-        hi[c] = std::max(hi[c], float(p[c]));
-      }
-    const double diagonal = double(glm::length(hi - lo));
     double position_error = 0.0, normal_error = 0.0;
     for (size_t pose = 0; pose < std::min<size_t>(model_.poses.size(), 8); ++pose) {
       evaluate_api(Method::lbs, model_.poses[pose]);
       lbs_optimised_->skin(model_.poses[pose].data(), vertex_buffer_.data(), kVertexStride);
+      glm::vec3 lo(std::numeric_limits<float>::max()), hi(-std::numeric_limits<float>::max());
+      for (size_t v = 0; v < n; ++v)
+        for (size_t c = 0; c < 3; ++c) {
+          lo[int(c)] = std::min(lo[int(c)], positions_[3 * v + c]);
+          hi[int(c)] = std::max(hi[int(c)], positions_[3 * v + c]);
+        }
+      const double diagonal = double(glm::length(hi - lo));
       for (size_t v = 0; v < n; ++v)
         for (size_t c = 0; c < 3; ++c) {
           const float* out = vertex_buffer_.data() + kVertexStride * v;
@@ -395,6 +421,11 @@ int run_json(bool smoke, bool cpu_time, int runs, bool markdown) {
     std::printf("\n");
   }
   for (const MeshCase& mesh_case : kMeshes) {
+    if (!available(mesh_case)) {
+      std::fprintf(stderr, "skelform-bench: %s skipped: %s not found under %s\n", mesh_case.name, mesh_case.data_file,
+                   skelform::bench::data_dir().string().c_str());
+      continue;
+    }
     Scene& s = scene(mesh_case);
     std::array<std::vector<double>, kMethods.size()> per_run;
     for (int run = 0; run < runs; ++run) {
@@ -437,7 +468,7 @@ int run_json(bool smoke, bool cpu_time, int runs, bool markdown) {
 // a time).
 class Crowd {
  public:
-  Crowd(size_t count, unsigned threads) : threads_(threads), model_(1) {
+  Crowd(size_t count, unsigned threads) : threads_(threads), model_(kCrowdMesh) {
     members_.resize(count);
     for (Member& m : members_) {
       check(sf_instance_create(model_.asset, 0, &m.instance), "sf_instance_create");
@@ -530,9 +561,9 @@ void register_benchmarks() {
     for (Method method : kMethods) {
       const std::string name = std::string("evaluate/") + mesh_case.name + "/" + method_name(method);
       benchmark::RegisterBenchmark(name.c_str(), [mesh_case, method](benchmark::State& state) {
-        if (!skelform::bench::cesium_man_path()) {
-          state.SkipWithError(("CesiumMan/CesiumMan.glb not found under " + skelform::bench::data_dir().string() +
-                               " (set SKELFORM_DATA_DIR)")
+        if (!skelform::bench::cesium_man_path() || !available(mesh_case)) {
+          state.SkipWithError((std::string(mesh_case.data_file ? mesh_case.data_file : "CesiumMan/CesiumMan.glb") +
+                               " not found under " + skelform::bench::data_dir().string() + " (set SKELFORM_DATA_DIR)")
                                   .c_str());
           return;
         }
