@@ -10,7 +10,7 @@
 #if defined(__SSE2__)
 #  include <emmintrin.h>
 #endif
-#if (defined(__x86_64__) || defined(__i386__)) && (defined(__GNUC__) || defined(__clang__))
+#if defined(__SSE2__) && (defined(__x86_64__) || defined(__i386__)) && (defined(__GNUC__) || defined(__clang__))
 #  define SKELFORM_HIERARCHY_AVX2 1
 #  include <immintrin.h>
 #endif
