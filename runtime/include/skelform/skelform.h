@@ -23,12 +23,34 @@
  *   at once. Destroy it after its last instance.
  * - An sf_instance holds one character's mutable state (pose, previous evaluation for
  *   incremental fairing). Use it from one thread at a time; different instances may be
- *   evaluated on different threads concurrently.
+ *   evaluated on different threads concurrently. "One thread at a time" includes the calls
+ *   that take a const sf_instance* (sf_instance_write, sf_instance_write_coarse,
+ *   sf_instance_last_error, ...): a failing one records its message in the instance, so two
+ *   threads may not write out of the same instance at once.
  * - There is no global mutable state. No call throws, aborts or exits on bad input; every
  *   call returns an sf_result and keeps a readable message (sf_instance_last_error, or the
  *   caller's buffer in sf_load_options for loading).
  * - Memory is allocated only when an asset or an instance is created (and when a handle set
  *   is changed or the contact pass turned on); evaluation and output never allocate.
+ *
+ * A frame
+ *   load once:        sf_asset_load_file / sf_asset_load_memory, sf_asset_deformable_info,
+ *                     sf_asset_primitive_info (where each primitive's vertices go)
+ *   per character:    sf_instance_create (one per deformable a character shows)
+ *   per frame:        sf_instance_set_joint_matrices (or the handle calls), then
+ *                     sf_instance_evaluate, then sf_instance_write for each primitive into
+ *                     the engine's vertex buffers
+ *   at the end:       sf_instance_destroy for every instance, then sf_asset_destroy
+ *   samples/c_engine/skelform_c_engine.c is this frame as a complete C99 program.
+ *
+ * Compatibility
+ * - Result codes and enum values never change meaning; new ones are appended.
+ * - Option and output structs only grow at their end, and a zeroed struct means the
+ *   documented defaults: code that zero-initialises them keeps compiling and behaving the same
+ *   against a later header (source compatibility).
+ * - Binary compatibility is kept within a minor version (0.6.x): a program built against one
+ *   0.6 header runs with any 0.6 library. Across minor versions, rebuild against the new
+ *   header; sf_version() tells which library was linked.
  */
 #ifndef SKELFORM_SKELFORM_H
 #define SKELFORM_SKELFORM_H
@@ -204,7 +226,11 @@ typedef struct sf_instance sf_instance; /* one character's state, one thread at 
 
 /* Creates an instance of one deformable, at its rest pose (joint matrices = identity). All
  * the memory it will ever need (but for handle sets) is allocated here, with the asset's
- * allocator. */
+ * allocator. Returns SF_ERROR_INVALID_ARGUMENT for a NULL out_instance or asset or a
+ * deformable out of range, SF_ERROR_OUT_OF_MEMORY when the allocator fails, and
+ * SF_ERROR_INVALID_DATA for any other failure of building the instance's state (none is
+ * known for an asset that loaded); there is no instance yet to hold a message, so the code
+ * is the whole answer. */
 SF_API sf_result sf_instance_create(const sf_asset* asset, uint32_t deformable, sf_instance** out_instance);
 
 /* Releases an instance. NULL is ignored. */
