@@ -21,6 +21,7 @@
 #include <algorithm>
 #include <cstdint>
 #include <limits>
+#include <type_traits>
 
 namespace skelform::runtime {
 
@@ -168,11 +169,37 @@ inline bool hierarchy_boxes_meet(const float* a, const float* b) {
   return a[0] <= b[3] && b[0] <= a[3] && a[1] <= b[4] && b[1] <= a[4] && a[2] <= b[5] && b[2] <= a[5];
 }
 
-// Calls visit(t) for every triangle t whose box (`boxes`, by slot) meets `box`.
+// The work bound of a pair search over a mesh of `triangles` (the LBS guard per evaluation, the
+// rest pairs at load): candidate pairs visited, kPairVisitsPerTriangle per triangle plus
+// kPairVisitsFloor. Real meshes stay far below it (the corpus's worst guard evaluation visits
+// 27 per triangle); only a surface tangled over itself, all boxes meeting all boxes, reaches
+// it, and the searches are quadratic there: the caller stops and falls back.
+constexpr uint64_t kPairVisitsPerTriangle = 64;
+constexpr uint64_t kPairVisitsFloor = uint64_t(1) << 16;
+inline uint64_t pair_visit_budget(uint32_t triangles) { return kPairVisitsPerTriangle * triangles + kPairVisitsFloor; }
+
+namespace detail {
+
+// visit(args...), and whether the search goes on: a visitor may return bool (false stops the
+// search) or nothing (it never stops).
+template <class Visit, class... Args>
+inline bool visit_goes_on(Visit& visit, Args... args) {
+  if constexpr (std::is_void_v<std::invoke_result_t<Visit&, Args...>>) {
+    visit(args...);
+    return true;
+  } else {
+    return bool(visit(args...));
+  }
+}
+
+}  // namespace detail
+
+// Calls visit(t) for every triangle t whose box (`boxes`, by slot) meets `box`. A visitor that
+// returns bool stops the search by returning false; the call returns false when it was stopped.
 template <class Visit>
-void query_triangle_hierarchy(const TriangleHierarchy& h, const float* node_boxes, const SlotBoxes& boxes,
+bool query_triangle_hierarchy(const TriangleHierarchy& h, const float* node_boxes, const SlotBoxes& boxes,
                               const float* box, Visit&& visit) {
-  if (h.nodes.empty()) return;
+  if (h.nodes.empty()) return true;
   uint32_t stack[kMaxHierarchyDepth + 1];
   uint32_t top = 0;
   stack[top++] = 0;
@@ -202,19 +229,20 @@ void query_triangle_hierarchy(const TriangleHierarchy& h, const float* node_boxe
       while (mask) {
         const uint32_t j = uint32_t(__builtin_ctz(mask));
         mask &= mask - 1;
-        visit(h.order[node.first + j]);
+        if (!detail::visit_goes_on(visit, h.order[node.first + j])) return false;
       }
 #else
       for (uint32_t i = node.first; i < node.first + node.count; ++i)
         if (box[0] <= p[3 * bs + i] && p[i] <= box[3] && box[1] <= p[4 * bs + i] && p[bs + i] <= box[4] &&
-            box[2] <= p[5 * bs + i] && p[2 * bs + i] <= box[5])
-          visit(h.order[i]);
+            box[2] <= p[5 * bs + i] && p[2 * bs + i] <= box[5] && !detail::visit_goes_on(visit, h.order[i]))
+          return false;
 #endif
     } else {
       stack[top++] = node.first + 1;
       stack[top++] = node.first;
     }
   }
+  return true;
 }
 
 namespace detail {
@@ -353,12 +381,13 @@ inline LeafPairKernel leaf_pair_kernel() {
 // triangle, non-zero), by a simultaneous descent of the hierarchy against itself: node pairs
 // whose boxes (`node_boxes`) miss each other, or that hold no wanted triangle, are pruned as
 // wholes (`node_wanted` per node and `leaf_wanted`, a leaf's wanted lanes, are filled here);
-// at two leaves, a triangle meets all lanes of the other leaf at once.
+// at two leaves, a triangle meets all lanes of the other leaf at once. A visitor that returns
+// bool stops the search by returning false (a work budget); the call then returns false.
 template <class Visit>
-void self_pairs_triangle_hierarchy(const TriangleHierarchy& h, const float* node_boxes, const SlotBoxes& boxes,
+bool self_pairs_triangle_hierarchy(const TriangleHierarchy& h, const float* node_boxes, const SlotBoxes& boxes,
                                    const uint8_t* wanted, uint8_t* node_wanted, uint32_t* leaf_wanted, Visit&& visit) {
   static_assert(kLeafTriangles % 4 == 0 && kLeafTriangles < 32, "a leaf: groups of four lanes, its lanes one word");
-  if (h.nodes.empty()) return;
+  if (h.nodes.empty()) return true;
   for (size_t n = h.nodes.size(); n-- > 0;) {
     const HierarchyNode node = h.nodes[n];
     uint32_t lanes = 0;
@@ -374,7 +403,7 @@ void self_pairs_triangle_hierarchy(const TriangleHierarchy& h, const float* node
   const detail::LeafPairKernel kernel = detail::leaf_pair_kernel();
   uint32_t masks[kLeafTriangles];
   // Leaf a's triangles against the lanes of leaf b: lane j of triangle i's row when bit j of
-  // allowed(i) is set.
+  // allowed(i) is set. False when the visitor stopped.
   auto leaves = [&](uint32_t a, uint32_t b, auto&& allowed) {
     const HierarchyNode na = h.nodes[a], nb = h.nodes[b];
     kernel(input, na.first, na.count, nb.first, node_boxes + 6 * size_t(b), masks);
@@ -384,9 +413,10 @@ void self_pairs_triangle_hierarchy(const TriangleHierarchy& h, const float* node
       while (mask) {
         const uint32_t j = uint32_t(__builtin_ctz(mask));
         mask &= mask - 1;
-        visit(s, h.order[nb.first + j]);
+        if (!detail::visit_goes_on(visit, s, h.order[nb.first + j])) return false;
       }
     }
+    return true;
   };
   // A pair of nodes to compare; a == b: a node against itself.
   struct Pair {
@@ -402,10 +432,11 @@ void self_pairs_triangle_hierarchy(const TriangleHierarchy& h, const float* node
     if (p.a == p.b) {
       if (na.count > 0) {
         const uint32_t lanes = (1u << na.count) - 1u, want = leaf_wanted[p.a];
-        leaves(p.a, p.a, [&](uint32_t i) {
+        const bool goes_on = leaves(p.a, p.a, [&](uint32_t i) {
           const uint32_t later = lanes & ~((2u << i) - 1u);  // the lanes after i: each pair once
           return (want >> i) & 1u ? later : later & want;
         });
+        if (!goes_on) return false;
       } else {
         stack[top++] = {na.first, na.first + 1};
         stack[top++] = {na.first + 1, na.first + 1};
@@ -416,7 +447,7 @@ void self_pairs_triangle_hierarchy(const TriangleHierarchy& h, const float* node
     if (!hierarchy_boxes_meet(node_boxes + 6 * size_t(p.a), node_boxes + 6 * size_t(p.b))) continue;
     if (na.count > 0 && nb.count > 0) {
       const uint32_t lanes = (1u << nb.count) - 1u, want_a = leaf_wanted[p.a], want_b = leaf_wanted[p.b];
-      leaves(p.a, p.b, [&](uint32_t i) { return (want_a >> i) & 1u ? lanes : lanes & want_b; });
+      if (!leaves(p.a, p.b, [&](uint32_t i) { return (want_a >> i) & 1u ? lanes : lanes & want_b; })) return false;
       continue;
     }
     // Descend the inner node; when both are, the one with the larger box.
@@ -433,6 +464,7 @@ void self_pairs_triangle_hierarchy(const TriangleHierarchy& h, const float* node
       stack[top++] = {p.a, nb.first + 1};
     }
   }
+  return true;
 }
 
 }  // namespace skelform::runtime

@@ -59,29 +59,44 @@ PairSet brute_force(const std::vector<uint32_t>& tri, const std::vector<float>& 
   return pairs;
 }
 
-// The hierarchy is built at `rest`, searched at `now` (as the guard does: rest shape, posed boxes).
+// The hierarchy built at `rest` with the triangles' boxes at `now` (as the guard does: rest
+// shape, posed boxes), refitted: what every search below runs on.
+struct Searchable {
+  Searchable(const std::vector<glm::vec3>& rest, const std::vector<glm::vec3>& now, const std::vector<uint32_t>& tri)
+      : n(uint32_t(tri.size() / 3)),
+        h(build_triangle_hierarchy(rest.data(), tri.data(), n, AllocatorRef{})),
+        slot_boxes(AllocatorRef{}) {
+    boxes_of(now, tri, boxes);
+    slot_boxes.resize(h);
+    for (uint32_t t = 0; t < n; ++t) slot_boxes.set(h.slot[t], &boxes[6 * size_t(t)]);
+    node_boxes.resize(6 * h.nodes.size());
+    refit_triangle_hierarchy(h, slot_boxes, node_boxes.data());
+  }
+  // The self-pair search with `wanted`.
+  template <class Visit>
+  bool self_pairs(const std::vector<uint8_t>& wanted, Visit&& visit) {
+    std::vector<uint8_t> node_wanted(h.nodes.size());
+    std::vector<uint32_t> leaf_wanted(h.nodes.size());
+    return self_pairs_triangle_hierarchy(h, node_boxes.data(), slot_boxes, wanted.data(), node_wanted.data(),
+                                         leaf_wanted.data(), visit);
+  }
+  uint32_t n;
+  skelform::runtime::TriangleHierarchy h;
+  std::vector<float> boxes;  // by triangle
+  SlotBoxes slot_boxes;
+  std::vector<float> node_boxes;
+};
+
 void check_search(const std::vector<glm::vec3>& rest, const std::vector<glm::vec3>& now,
                   const std::vector<uint32_t>& tri, const std::vector<uint8_t>& wanted) {
-  const AllocatorRef allocator{};
-  const uint32_t n = uint32_t(tri.size() / 3);
-  const auto h = build_triangle_hierarchy(rest.data(), tri.data(), n, allocator);
-  std::vector<float> boxes;
-  boxes_of(now, tri, boxes);
-  SlotBoxes slot_boxes(allocator);
-  slot_boxes.resize(h);
-  for (uint32_t t = 0; t < n; ++t) slot_boxes.set(h.slot[t], &boxes[6 * size_t(t)]);
-  std::vector<float> node_boxes(6 * h.nodes.size());
-  refit_triangle_hierarchy(h, slot_boxes, node_boxes.data());
-  std::vector<uint8_t> node_wanted(h.nodes.size());
-  std::vector<uint32_t> leaf_wanted(h.nodes.size());
+  Searchable scene(rest, now, tri);
   PairSet found;
   size_t visits = 0;
-  self_pairs_triangle_hierarchy(h, node_boxes.data(), slot_boxes, wanted.data(), node_wanted.data(), leaf_wanted.data(),
-                                [&](uint32_t s, uint32_t t) {
-                                  ++visits;
-                                  found.insert({std::min(s, t), std::max(s, t)});
-                                });
-  const PairSet expected = brute_force(tri, boxes, wanted);
+  scene.self_pairs(wanted, [&](uint32_t s, uint32_t t) {
+    ++visits;
+    found.insert({std::min(s, t), std::max(s, t)});
+  });
+  const PairSet expected = brute_force(tri, scene.boxes, wanted);
   CHECK(visits == found.size());  // each pair once
   CHECK(found == expected);
   CHECK(!expected.empty());  // the scene has pairs to find
@@ -146,18 +161,12 @@ TEST_CASE("triangle hierarchy: every leaf-pair kernel gives the portable loop's 
   std::vector<glm::vec3> rest, now;
   std::vector<uint32_t> tri;
   grid(23, 1.3f, rest, now, tri);
-  const AllocatorRef allocator{};
-  const uint32_t n = uint32_t(tri.size() / 3);
-  const auto h = build_triangle_hierarchy(rest.data(), tri.data(), n, allocator);
-  std::vector<float> boxes;
-  boxes_of(now, tri, boxes);
-  SlotBoxes slot_boxes(allocator);
-  slot_boxes.resize(h);
-  for (uint32_t t = 0; t < n; ++t) slot_boxes.set(h.slot[t], &boxes[6 * size_t(t)]);
-  std::vector<float> node_boxes(6 * h.nodes.size());
-  refit_triangle_hierarchy(h, slot_boxes, node_boxes.data());
+  const Searchable scene(rest, now, tri);
+  const auto& h = scene.h;
+  const auto& node_boxes = scene.node_boxes;
   namespace detail = skelform::runtime::detail;
-  const detail::LeafPairInput input{slot_boxes.planes.data(), slot_boxes.stride, h.corners.data(), h.slot_stride()};
+  const detail::LeafPairInput input{scene.slot_boxes.planes.data(), scene.slot_boxes.stride, h.corners.data(),
+                                    h.slot_stride()};
   std::vector<std::pair<const char*, detail::LeafPairKernel>> kernels;
 #if defined(__SSE2__)
   kernels.emplace_back("sse2", &detail::leaf_pair_sse2);
@@ -197,22 +206,15 @@ TEST_CASE("triangle hierarchy: a box query finds what a brute-force loop finds")
   std::vector<glm::vec3> rest, now;
   std::vector<uint32_t> tri;
   grid(23, 1.3f, rest, now, tri);
-  const AllocatorRef allocator{};
-  const uint32_t n = uint32_t(tri.size() / 3);
-  const auto h = build_triangle_hierarchy(rest.data(), tri.data(), n, allocator);
-  std::vector<float> boxes;
-  boxes_of(now, tri, boxes);
-  SlotBoxes slot_boxes(allocator);
-  slot_boxes.resize(h);
-  for (uint32_t t = 0; t < n; ++t) slot_boxes.set(h.slot[t], &boxes[6 * size_t(t)]);
-  std::vector<float> node_boxes(6 * h.nodes.size());
-  refit_triangle_hierarchy(h, slot_boxes, node_boxes.data());
+  const Searchable scene(rest, now, tri);
+  const uint32_t n = scene.n;
+  const std::vector<float>& boxes = scene.boxes;
   size_t found_total = 0, mismatched = 0;
   for (uint32_t q = 0; q < n; q += 7) {
     const float* box = &boxes[6 * size_t(q)];
     std::set<uint32_t> found, expected;
     size_t visits = 0;
-    query_triangle_hierarchy(h, node_boxes.data(), slot_boxes, box, [&](uint32_t t) {
+    query_triangle_hierarchy(scene.h, scene.node_boxes.data(), scene.slot_boxes, box, [&](uint32_t t) {
       found.insert(t);
       ++visits;
     });
@@ -226,4 +228,32 @@ TEST_CASE("triangle hierarchy: a box query finds what a brute-force loop finds")
   }
   CHECK(mismatched == 0);
   CHECK(found_total > 1000);
+}
+
+TEST_CASE("triangle hierarchy: a visitor that returns false stops either search there") {
+  // The guard's work budget: the search must end at the visit that says so, and say it ended.
+  std::vector<glm::vec3> rest, now;
+  std::vector<uint32_t> tri;
+  grid(23, 1.3f, rest, now, tri);
+  Searchable scene(rest, now, tri);
+  const std::vector<uint8_t> all(scene.n, 1);
+  size_t pairs = 0;
+  CHECK(scene.self_pairs(all, [&](uint32_t, uint32_t) { return ++pairs > 0; }));  // never stops: all of them
+  REQUIRE(pairs > 100);
+  for (size_t stop_at : {size_t(1), size_t(17), pairs / 2, pairs}) {
+    size_t visits = 0;
+    const bool complete = scene.self_pairs(all, [&](uint32_t, uint32_t) { return ++visits < stop_at; });
+    INFO("stop at visit " << stop_at << " of " << pairs);
+    CHECK(!complete);
+    CHECK(visits == stop_at);
+  }
+  const float* box = &scene.boxes[0];
+  size_t found = 0;
+  CHECK(query_triangle_hierarchy(scene.h, scene.node_boxes.data(), scene.slot_boxes, box,
+                                 [&](uint32_t) { return ++found > 0; }));
+  REQUIRE(found >= 2);
+  size_t visits = 0;
+  CHECK(!query_triangle_hierarchy(scene.h, scene.node_boxes.data(), scene.slot_boxes, box,
+                                  [&](uint32_t) { return ++visits < 2; }));
+  CHECK(visits == 2);
 }
