@@ -467,15 +467,23 @@ ContactMesh build_contact_mesh(const glm::vec3* rest_positions, uint32_t vertex_
     boxes.set(mesh.hierarchy.slot[t], box);
   }
   refit_triangle_hierarchy(mesh.hierarchy, boxes, node_boxes.data());
-  self_pairs_triangle_hierarchy(
+  uint64_t visits_left = pair_visit_budget(mesh.triangle_count);
+  const bool complete = self_pairs_triangle_hierarchy(
       mesh.hierarchy, node_boxes.data(), boxes, wanted.data(), node_wanted.data(), leaf_wanted.data(),
       [&](uint32_t s, uint32_t t) {
+        if (visits_left == 0) return false;
+        --visits_left;
         const uint32_t* p = tri + 3 * size_t(s);
         const uint32_t* q = tri + 3 * size_t(t);
         auto at = [&](uint32_t v) { return glm::dvec3(welded_rest[v]); };
         if (geometry::triangles_intersect(at(p[0]), at(p[1]), at(p[2]), at(q[0]), at(q[1]), at(q[2])))
           mesh.rest_pairs.push_back(uint64_t(std::min(s, t)) << 32 | std::max(s, t));
+        return true;
       });
+  if (!complete) {
+    mesh.tangled_at_rest = true;
+    Array<uint64_t>(CallbackAllocator<uint64_t>(allocator)).swap(mesh.rest_pairs);  // its memory too
+  }
   std::sort(mesh.rest_pairs.begin(), mesh.rest_pairs.end());
   return mesh;
 }
@@ -503,7 +511,7 @@ ContactStats resolve_contacts(const ContactMesh& mesh, float scale, glm::vec3* d
   ContactStats stats;
   // The pass's lengths follow the output's scale (instance.h JointTransforms).
   const float gap = mesh.gap * scale, cap = mesh.cap * scale;
-  if (mesh.triangle_count < 2 || dense_vertex_count != mesh.weld.size()) return stats;
+  if (mesh.triangle_count < 2 || dense_vertex_count != mesh.weld.size() || mesh.tangled_at_rest) return stats;
   glm::vec3* x = ws.positions.data();
   for (uint32_t w = 0; w < mesh.vertex_count; ++w) x[w] = dense_positions[mesh.representative[w]];
   Grid grid(mesh, gap, ws);

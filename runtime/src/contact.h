@@ -52,6 +52,9 @@ struct ContactMesh {
   // The pairs that intersect as modelled (s << 32 | t, s < t, ascending): parts a modeller
   // embedded in each other. The contact pass leaves them be.
   Array<uint64_t> rest_pairs;
+  // The rest-pair search ran out of its budget (pair_visit_budget: a mesh tangled over itself
+  // at rest, as corrupt data gives): rest_pairs is empty, and the contact pass leaves the mesh.
+  bool tangled_at_rest = false;
 };
 
 constexpr uint32_t kContactSweeps = 4;  // passes over the active vertices, at most

@@ -131,6 +131,12 @@ void guard_intersections(const Deformable& d, const ContactMesh& mesh, const Den
   for (uint32_t round = 0; !ws.test_list.empty(); ++round) {
     ws.flagged_list.clear();
     bool added = false;
+    // One candidate pair from the budget; false (and LBS everywhere) when it is spent.
+    auto spend = [&] {
+      if (ws.visits_left == 0) return false;
+      --ws.visits_left;
+      return true;
+    };
     // A pair of triangles whose boxes meet now and that share no corner: intersecting at x
     // and not at L?
     auto check_exact = [&](uint32_t t, uint32_t s) {
@@ -158,10 +164,15 @@ void guard_intersections(const Deformable& d, const ContactMesh& mesh, const Den
       if (share_corner(tri + 3 * size_t(t), tri + 3 * size_t(s)) || !boxes_meet(bt, bs)) return;
       check_exact(t, s);
     };
+    bool complete = true;
     if (round == 0) {
       // Every pair with a moved triangle: the hierarchy against itself.
-      self_pairs_triangle_hierarchy(h, ws.node_boxes.data(), ws.boxes, ws.tested.data(), ws.node_flags.data(),
-                                    ws.leaf_flags.data(), check_exact);
+      complete = self_pairs_triangle_hierarchy(h, ws.node_boxes.data(), ws.boxes, ws.tested.data(),
+                                               ws.node_flags.data(), ws.leaf_flags.data(), [&](uint32_t t, uint32_t s) {
+                                                 if (!spend()) return false;
+                                                 check_exact(t, s);
+                                                 return true;
+                                               });
     } else {
       if (round == 1 && !ws.reach_ready) {
         // From here on, in this evaluation, the corners only travel towards L (λ only falls):
@@ -184,15 +195,26 @@ void guard_intersections(const Deformable& d, const ContactMesh& mesh, const Den
       for (uint32_t t : ws.test_list) {
         float bt[6];
         ws.boxes.get(h.slot[t], bt);
-        query_triangle_hierarchy(h, ws.node_boxes.data(), ws.reach_boxes, bt, [&](uint32_t s) {
+        complete = query_triangle_hierarchy(h, ws.node_boxes.data(), ws.reach_boxes, bt, [&](uint32_t s) {
           // Each pair once: two triangles of this round's list meet when the larger queries.
-          if (s == t || (ws.tested[s] && s > t)) return;
+          if (s == t || (ws.tested[s] && s > t)) return true;
+          if (!spend()) return false;
           check(t, s);
+          return true;
         });
+        if (!complete) break;
       }
     }
     for (uint32_t t : ws.test_list) ws.tested[t] = 0;
     ws.test_list.clear();
+    if (!complete) {
+      // Over the budget: LBS everywhere, this evaluation (no ramp: nothing is above 0).
+      for (uint32_t v : ws.flagged_list) ws.flagged[v] = 0;
+      std::fill(ws.factor.begin(), ws.factor.end(), 0.0f);
+      ws.corrected_list.clear();
+      ws.over_budget = true;
+      return;
+    }
     if (!added) return;
     ++ws.rounds;
     // Halve λ at the flagged moved corners (0 after kGuardHalvings rounds), move them, and
@@ -335,6 +357,8 @@ void guard_and_blend(const Deformable& d, const ContactMesh& mesh, float scale, 
   ws.reach_ready = false;
   ws.rounds = 0;
   ws.volume_share = 1.0f;
+  ws.visits_left = pair_visit_budget(mesh.triangle_count);
+  ws.over_budget = false;
   const bool welded = mesh.weld.size() == d.vertex_count && mesh.triangle_count >= 2;
   if (welded) {
     guard_intersections(d, mesh, skelform, lbs, ws);
@@ -342,10 +366,11 @@ void guard_and_blend(const Deformable& d, const ContactMesh& mesh, float scale, 
     // by at most half of what is left per ring, over kGuardRampRings rings; the lowered factors
     // are then checked again (a vertex between K and L is not safe by itself).
     // Only the triangles around a lowered vertex can have a new pair: the rest is as checked.
-    if (ramp_factors(mesh, ws)) guard_intersections(d, mesh, skelform, lbs, ws, &ws.lowered_list);
+    // Over the budget, every λ is 0 already (LBS): nothing is left to ramp or to scale.
+    if (!ws.over_budget && ramp_factors(mesh, ws)) guard_intersections(d, mesh, skelform, lbs, ws, &ws.lowered_list);
     // Volume: a closed mesh keeps its rest volume, scaled by the pose's reference scale cubed,
     // no worse than LBS does; μ scales the whole guarded correction where it would not.
-    if (mesh.closed && std::isfinite(mesh.rest_volume) && mesh.rest_volume != 0.0) {
+    if (!ws.over_budget && mesh.closed && std::isfinite(mesh.rest_volume) && mesh.rest_volume != 0.0) {
       const double target = mesh.rest_volume * double(scale) * double(scale) * double(scale);
       for (uint32_t attempt = 0; attempt < kVolumeAttempts; ++attempt) {
         double v[4];
@@ -356,7 +381,7 @@ void guard_and_blend(const Deformable& d, const ContactMesh& mesh, float scale, 
         ws.volume_share *= float(share);
         // The scaled correction is checked again: its pairs must still be LBS's.
         guard_intersections(d, mesh, skelform, lbs, ws);
-        if (share == 0.0) break;
+        if (share == 0.0 || ws.over_budget) break;
       }
     }
   }

@@ -20,6 +20,10 @@
 // the broad phase is the welded mesh's triangle hierarchy (triangle_bvh.h), refitted once per
 // evaluation to every triangle's reach (its boxes at x and at L), queried by the triangles
 // each round tests.
+// The guard's work per evaluation is bounded (pair_visit_budget, triangle_bvh.h: candidate
+// pairs its searches visit, linear in the welded triangles): a pose that would need more, a
+// surface tangled over itself as only degenerate or corrupt data gives (the corpus's worst
+// frame uses under half of it), is output as LBS, so no input makes an evaluation quadratic.
 // Volume, on a closed mesh: after the intersection guard, if the result's volume is further
 // from the rest volume (times the pose's reference scale cubed: the bind volume) than LBS's,
 // every λ is scaled by the largest μ ∈ [0, 1] that brings it back within LBS's error (the
@@ -88,6 +92,8 @@ struct GuardWorkspace {
   Array<uint8_t> node_flags;       // per node: it holds a triangle of the first round
   Array<uint32_t> leaf_flags;      // per leaf node: its lanes holding one
   bool reach_ready = false;        // reach_boxes hold every position to come this evaluation
+  uint64_t visits_left = 0;        // of this evaluation's budget
+  bool over_budget = false;        // the last evaluation ran out of it (and is LBS)
   uint32_t rounds = 0;             // of the last evaluation
   uint32_t corrected = 0;          // welded vertices with λ < 1 after the last evaluation
   float volume_share = 1.0f;       // μ of the last evaluation

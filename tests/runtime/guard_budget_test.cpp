@@ -1,0 +1,131 @@
+// runtime/src/lbs_guard.h's work bound, on the guard itself: a pose whose surface is tangled
+// over itself (every triangle's box meets nearly every other's, as corrupt or degenerate data
+// gives) ends the search at pair_visit_budget (triangle_bvh.h) candidate pairs and outputs
+// exactly LBS; a tangle within the budget is resolved as always, to no pair LBS lacks. The
+// contact mesh's rest-pair search (at load) has the same bound.
+#include "asset.h"
+#include "contact.h"
+#include "instance.h"
+#include "lbs_guard.h"
+#include "triangle_intersection.h"
+
+#include <doctest/doctest.h>
+#include <glm/geometric.hpp>
+#include <glm/vec3.hpp>
+#include <glm/vec4.hpp>
+
+#include <cstdint>
+#include <random>
+#include <vector>
+
+namespace {
+
+using namespace skelform::runtime;
+
+// `count` separate triangles: at rest (and under LBS) each alone in a cell of a wide grid, so
+// LBS has no pair; skelform's result throws them all into the unit cube, where most boxes meet.
+struct Tangle {
+  explicit Tangle(uint32_t count) : d(AllocatorRef{}), mesh(AllocatorRef{}) {
+    std::mt19937 random(5);
+    std::uniform_real_distribution<float> unit(0.0f, 1.0f);
+    for (uint32_t t = 0; t < count; ++t) {
+      const glm::vec3 cell(float(t % 40) * 10.0f, float(t / 40) * 10.0f, 0.0f);
+      for (const glm::vec3& corner : {glm::vec3(0, 0, 0), glm::vec3(1, 0, 0), glm::vec3(0, 1, 0)}) {
+        rest.push_back(cell + corner);
+        thrown.emplace_back(unit(random), unit(random), unit(random));
+        triangles.push_back(uint32_t(triangles.size()));
+      }
+    }
+    const uint32_t vertices = 3 * count;
+    normals.assign(vertices, glm::vec3(0, 0, 1));
+    d.vertex_count = vertices;
+    d.skelform_weight.assign(vertices, 1.0f);
+    PrimitiveRecord primitive;
+    primitive.primitive = 0;
+    primitive.vertex_count = vertices;
+    primitive.triangle_count = count;
+    primitive.has_normals = true;
+    d.primitives.push_back(primitive);
+    mesh = build_contact_mesh(rest.data(), vertices, triangles.data(), count, AllocatorRef{});
+  }
+
+  // The guard's blend of skelform = `thrown` and LBS = `rest`, into `out`; the workspace after.
+  GuardWorkspace blend(std::vector<glm::vec3>& out) {
+    GuardWorkspace ws = make_guard_workspace(mesh, AllocatorRef{});
+    std::vector<glm::vec3> k = thrown, l = rest, kn = normals, ln = normals, on(normals.size());
+    out.assign(rest.size(), glm::vec3(0.0f));
+    guard_and_blend(d, mesh, 1.0f, DenseOutput{k.data(), kn.data(), nullptr}, DenseOutput{l.data(), ln.data(), nullptr},
+                    true, DenseOutput{out.data(), on.data(), nullptr}, ws);
+    return ws;
+  }
+
+  std::vector<glm::vec3> rest, thrown, normals;
+  std::vector<uint32_t> triangles;
+  Deformable d;
+  ContactMesh mesh;
+};
+
+// Intersecting pairs of separate triangles at `p`, by brute force.
+size_t pairs_at(const std::vector<glm::vec3>& p) {
+  size_t pairs = 0;
+  const size_t n = p.size() / 3;
+  auto at = [&](size_t v) { return glm::dvec3(p[v]); };
+  for (size_t s = 0; s < n; ++s)
+    for (size_t t = s + 1; t < n; ++t)
+      pairs += skelform::geometry::triangles_intersect(at(3 * s), at(3 * s + 1), at(3 * s + 2), at(3 * t),
+                                                       at(3 * t + 1), at(3 * t + 2))
+                   ? 1
+                   : 0;
+  return pairs;
+}
+
+}  // namespace
+
+TEST_CASE("guard: a tangle within the work budget is resolved to no pair LBS lacks") {
+  Tangle tangle(60);  // 1,770 candidate pairs at most: far below the floor
+  REQUIRE(pairs_at(tangle.thrown) > 100);
+  std::vector<glm::vec3> out;
+  const GuardWorkspace ws = tangle.blend(out);
+  CHECK(!ws.over_budget);
+  CHECK(pairs_at(out) == 0);  // LBS (the rest grid) has none
+  size_t kept = 0;            // and the guard kept what it could of skelform's result
+  for (size_t v = 0; v < out.size(); ++v) kept += out[v] != tangle.rest[v] ? 1 : 0;
+  CHECK(kept > 0);
+}
+
+TEST_CASE("guard: a tangle beyond the work budget stops the search and is LBS, bit for bit") {
+  const uint32_t count = 1200;  // ~720,000 candidate pairs
+  REQUIRE(pair_visit_budget(count) < uint64_t(count) * (count - 1) / 4);
+  Tangle tangle(count);
+  std::vector<glm::vec3> out;
+  const GuardWorkspace ws = tangle.blend(out);
+  CHECK(ws.over_budget);
+  CHECK(ws.visits_left == 0);  // it spent the budget and no more
+  CHECK(ws.corrected == tangle.mesh.vertex_count);
+  size_t differ = 0;
+  for (size_t v = 0; v < out.size(); ++v) differ += out[v] != tangle.rest[v] ? 1 : 0;
+  CHECK(differ == 0);
+}
+
+TEST_CASE("contact mesh: the rest pairs are found within the budget, and a mesh tangled at rest is left alone") {
+  SUBCASE("a small tangle at rest: every modelled pair, as brute force finds them") {
+    const Tangle tangle(60);
+    const ContactMesh mesh =
+        build_contact_mesh(tangle.thrown.data(), uint32_t(tangle.thrown.size()), tangle.triangles.data(), 60, {});
+    CHECK(!mesh.tangled_at_rest);
+    CHECK(mesh.rest_pairs.size() == pairs_at(tangle.thrown));
+  }
+  SUBCASE("a tangle beyond the budget: no rest pairs kept, and the contact pass moves nothing") {
+    const uint32_t count = 1200;
+    const Tangle tangle(count);
+    const ContactMesh mesh =
+        build_contact_mesh(tangle.thrown.data(), uint32_t(tangle.thrown.size()), tangle.triangles.data(), count, {});
+    CHECK(mesh.tangled_at_rest);
+    CHECK(mesh.rest_pairs.empty());
+    ContactWorkspace ws = make_contact_workspace(mesh, AllocatorRef{});
+    std::vector<glm::vec3> positions = tangle.thrown;
+    const ContactStats stats = resolve_contacts(mesh, 1.0f, positions.data(), uint32_t(positions.size()), ws);
+    CHECK(stats.moved == 0);
+    CHECK(positions == tangle.thrown);
+  }
+}
