@@ -706,8 +706,7 @@ void load_deformable(const tinygltf::Model& model, const tinygltf::Value& json, 
 // Renumbers the refined vertices in the order the dense vertices first name them as corners
 // of their bound triangles (then the unnamed ones, in baked order): the per-frame DSS loop
 // (displace.cpp) walks the dense vertices in order, and in the baked numbering their corners
-// lie all over the refined arrays (~3 cache lines per dense vertex on a Loop-subdivided
-// CesiumMan). A pure renaming: stencil rows move with their vertex, refined triangles keep
+// lie all over the refined arrays (several cache lines per dense vertex). A pure renaming: stencil rows move with their vertex, refined triangles keep
 // their order and their corners' roles, so every refined position and normal is computed
 // with the same operations in the same order, and the evaluation gives the same bits.
 void renumber_refined_vertices(Deformable& deformable) {
@@ -751,8 +750,7 @@ void renumber_refined_vertices(Deformable& deformable) {
 // sort of the rows by length, then kStencilLanes rows per group, entries lane-interleaved.
 // Each row keeps its entries in stencil order, so it sums to the same bits as from the CSR;
 // the sums of a group are independent, which hides their addition latency, and the inner
-// loop's trip count is the same group after group (CesiumMan_loop2's rows have 4 to 18
-// entries, in no order).
+// loop's trip count is the same group after group (rows come in mixed lengths, in no order).
 void group_stencils(Deformable& deformable) {
   const uint32_t count = deformable.refined_vertex_count;
   std::vector<uint32_t> by_length(count);

@@ -167,9 +167,8 @@ class Grid {
   // most of a surface's cells, whose pairs of near neighbours would otherwise cost most of the
   // pass). Two skins in contact face each other, a fold turns triangles over: such cells are
   // tested. Two sheets crossing within a cell with normals less than 120 degrees apart are
-  // missed (measured on the sample animations: the same result as testing every cell, at a
-  // third of the cost of testing every cell; a 90-degree cone was cheaper again but missed an
-  // octahedron's tip through a cube face, contact_test.cpp).
+  // missed; on the sample animations the result equals testing every cell, at a third of the
+  // cost (docs/tuning.md; a narrower cone misses a tip through a face, contact_test.cpp).
   template <class Visit>
   uint32_t for_each_pair(Visit&& visit) const {
     uint32_t count = 0;
@@ -538,9 +537,7 @@ ContactStats resolve_contacts(const ContactMesh& mesh, float scale, glm::vec3* d
   // intersecting pairs around it do not become more; in index order, each seeing the moves
   // before it, sweep after sweep while some vertex moves. Its total motion stays within the
   // grid's pad. (Not more rather than fewer: a row of vertices crossing another sheet clears
-  // only once all of them are out, and each alone changes no count. Measured, pairs summed
-  // over the sample animations with fewer / not more: CesiumMan 5 / 3, Fox Run 226 / 176,
-  // Walk 70 / 57, the 75K-triangle CesiumMan 3,112 / 2,778; the bent capsule 109 -> 78 / 61.)
+  // only once all of them are out, and each alone changes no count; docs/tuning.md.)
   for (uint32_t sweep = 0; sweep < kContactSweeps; ++sweep) {
     bool any = false;
     for (uint32_t v : ws.active) {

@@ -4,9 +4,8 @@
 // Flows (4) and (5) act on the control mesh, through medial balls; the dense mesh follows it by
 // displacement along the refined normals. Where two parts meet (a leg against the chest of a
 // running fox), the dense skins can still cross after the flows, and a correction of the
-// control mesh alone does not reach them (measured on Fox, whose dense vertices lie up to an
-// edge length off its control mesh: untangling the control mesh left the dense pairs in
-// place). This pass therefore works on the welded dense output: it finds the intersecting
+// control mesh alone does not reach them (dense vertices lie up to an edge length off the
+// control mesh; docs/tuning.md). This pass therefore works on the welded dense output: it finds the intersecting
 // pairs of non-adjacent triangles and moves their vertices out of each other, one vertex at a
 // time, keeping a move only where the number of intersecting pairs around that vertex does not
 // grow (so it never adds a pair to the output). It runs after the displacement, is not part of

@@ -1,6 +1,6 @@
 // The baselines SF_METHOD_LBS and SF_METHOD_DQS: the glTF skin applied straight to the
-// original vertices (DESIGN.md "per-frame cost": measured beside skelform on the same mesh
-// and pose, through the same call path). Written like ozz-animation's SkinningJob: one pass
+// original vertices (DESIGN.md "per-frame cost": timed beside skelform on the same mesh and
+// pose, through the same call path). Written like ozz-animation's SkinningJob: one pass
 // over the vertices, a fixed number of influences per vertex (zero-weight slots name joint 0
 // and add nothing, so the blend loop has no branch), the blend a tight loop over 12 (LBS) or
 // 17 (DQS) contiguous floats the compiler vectorises, all in float.

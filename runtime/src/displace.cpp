@@ -16,8 +16,7 @@
 //
 // The per-vertex loop works in blocks of kBlock dense vertices: one pass gathers the bound
 // triangles' corners and interpolates them (the point q(b), the unnormalised normal, the edge
-// p1 - p0: 9 floats per vertex stored where 18 were gathered; measured 9 % of the dense
-// stage) into structure-of-arrays scratch on the stack, one branch-free pass evaluates the
+// p1 - p0: 9 floats per vertex stored where 18 were gathered) into structure-of-arrays scratch on the stack, one branch-free pass evaluates the
 // rest of dss_frame.h's formula for the whole block (the compiler vectorises it: plain
 // C++, no intrinsics; sqrt and division are correctly rounded in every lane, so a vertex's
 // bits do not depend on its place in a block), and one pass writes the outputs. The

@@ -71,17 +71,8 @@ inline glm::vec3 normalise_or_zero(const glm::vec3& v) {
 //    it swings into the other part;
 //  - m, the direction the reconstruction M = S + d·N rebuilt the vertex along, does not see
 //    that tilt, but it turns with the skeleton's blend rather than with the surface.
-// Measured (tests/runtime/fair_animation_test.cpp on the samples, and with SKELFORM_DATA_DIR
-// pointing at skelform-character's model and at the bench's CesiumMan subdivided twice;
-// intersecting pairs summed over the animation (Fox 'Run': / frames above linear blend
-// skinning; no other animation has one), and the closest volume comparison, Fox 'Survey''s
-// mean |volume change|, LBS 1.267 %):
-//                     CesiumMan  Fox Run   character squat  75K CesiumMan  Fox Survey volume
-//   a alone (2.0)     1,203      268 / 1   737              4,334          1.259 %
-//   m alone           1,073      236 / 0   405              4,014          1.275 %
-//   bisector          1,149      219 / 0   528              4,132          1.264 %
-// m alone leaves the fewest pairs but loses more volume than LBS on Fox 'Survey'; a alone
-// leaves a Fox 'Run' frame above LBS; the bisector meets both.
+// Their bisector: m alone loses more volume than LBS on some animations, a alone adds pairs
+// LBS lacks on others; the bisector does neither (docs/tuning.md has the figures).
 inline void medial_normal_sums(const glm::vec3* positions, const glm::vec3* skeletal, size_t vertex_count,
                                glm::vec3* sums) {
   for (size_t c = 0; c < vertex_count; ++c) {

@@ -30,9 +30,8 @@
 // solved together (interleaved), in double precision: Q has the condition number of a
 // squared Laplacian, so float would lose several digits on a few thousand vertices.
 //
-// The basis. The bilaplacian couples 2-rings, so the factor is dense-ish: about 100 entries
-// per column on a 2.5K-vertex closed surface (AMD ordering; we measured AMD of the 1-ring
-// pattern at 3x the fill), i.e. ~0.8 ms per substitution. The field is linear in the handle
+// The basis. The bilaplacian couples 2-rings, so the factor is dense-ish (AMD ordering of the
+// 2-ring pattern; docs/tuning.md), a substitution costs about a millisecond. The field is linear in the handle
 // displacements, δ_f = Σ_u G_u δ_u with G_u = −Q_ff⁻¹ Q_f,u, and interactive deformation
 // ([25]) uses a few handles, so when n_free·slots < 2·nnz(L) we precompute G in create (one
 // substitution per distinct handle) and a frame costs n_free·slots multiply-adds instead:

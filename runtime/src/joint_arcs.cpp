@@ -25,10 +25,8 @@ constexpr float kFit = 0.9f;     // the fillet's tangent points stay within this
 // The arc replaces the linear blend from 0.75 to 1.25 of the joint's fold bend (the bend or
 // twist where linear blending starts to fold the reconstruction), the fold bend taken at
 // most 60 degrees: past about 75 degrees two limb segments press into each other on the
-// inner side whatever the blend's width (measured on the procedural character's squat: with
-// the fold bend alone, which puts its wide-blended knees at 160-240 degrees, the arcs never
-// came in and the squat kept 4,275 intersecting pairs; capped at 60 degrees, 737; at 90, 659
-// but Fox's run 413 instead of 266; at 40, two of Fox's run frames above LBS).
+// inner side whatever the blend's width (a wide blend's fold bend can reach 160-240 degrees,
+// and the arcs would never come in; the cap's trade-off is in docs/tuning.md).
 constexpr float kArcOnset = 0.75f, kArcFull = 1.25f;
 constexpr float kLargestFoldBend = kPi / 3.0f;
 constexpr double kBlendedWeight = 0.1;    // both of a pair above this: a vertex of the joint's blend
@@ -141,8 +139,7 @@ ArcMap arc_map(const ArcJoint& joint, const ArcPose& pose, float axial) {
     map.scale = 1.0f + pose.bulge * c * c;
   }
   // The twist (and any translation in the joint) spreads over the whole zone: over the skin's
-  // blend alone it shears the surface (150 degrees within one radius folds it, measured on the
-  // bent capsule).
+  // blend alone it shears the surface (150 degrees within one radius folds the bent capsule).
   const float t = std::clamp((z + F) / (2.0f * F), 0.0f, 1.0f);
   const float twist = t * t * (3.0f - 2.0f * t);
   map.rotation = rotation_about(pose.bend_axis, phi) * rotation_about(u, twist * pose.twist);

@@ -27,9 +27,8 @@ inline glm::vec3 rest_residual(const Deformable& d, uint32_t v) {
 // triangles incident to the vertex"; dss_frame.h's vertex_normals), shifted by
 // the per-vertex `rest_offset` = N_rest − N_area(M_rest) so that N(M_rest) = N_rest exactly.
 // Without it, eq. (3) iterated at rest is M ← S + d·N_area(M): the runtime's float normals
-// differ from the bake's by up to a few tenths of a degree (CesiumMan), and the homotopy,
-// which amplifies such differences (DESIGN.md), walked 6e-5 of the diagonal off the rest pose
-// in three incremental evaluations. The offset is a model-space constant: under deformation it
+// differ from the bake's by up to a few tenths of a degree, and the homotopy, which amplifies
+// such differences (DESIGN.md), walks off the rest pose frame by frame. The offset is a model-space constant: under deformation it
 // is off by at most its own size (the same few tenths of a degree). A vertex whose normal vanishes (collapsed neighbourhood)
 // keeps `fallback`'s, so N stays unit and finite.
 void paper_normals(const Deformable& d, const glm::vec3* positions, const glm::vec3* rest_offset,
@@ -83,9 +82,8 @@ void reconstruct_homotopy(const Deformable& d, const glm::vec3* rest_offset, con
   // A homotopy from S_0 to S_L = S_0 is constant: M_0 already is the reconstruction of S_0.
   // Not only a shortcut: eq. (3) iterated on a still skeleton is the map M ← S + d·N(M),
   // whose gain on high frequencies is about d / edge length (> 1 on thick parts of a coarse
-  // control mesh), so float rounding alone would grow about 2× per step (measured on
-  // CesiumMan: 4e-5 of the diagonal after three still incremental frames, DESIGN.md
-  // "Measured before any code"). A held pose must not drift.
+  // control mesh), so float rounding alone would grow about 2× per step (DESIGN.md "Measured
+  // before any code"; docs/tuning.md). A held pose must not drift.
   bool still = true;
   for (uint32_t v = 0; v < count && still; ++v) still = skeletal[v] == start_skeletal[v];
   if (still && !start_normals) {

@@ -2,18 +2,15 @@
 // Compiled without loop vectorisation where the compiler has the switch
 // (runtime/CMakeLists.txt): GCC would otherwise vectorise the walk along a stencil with
 // in-order ("fold-left") reductions, shuffling every product into place and adding lane after
-// lane (~30% slower than the scalar code on CesiumMan_loop2); the scalar code keeps its
-// independent sums in flight instead. With SSE2 (every x86-64) the sums run as one vector per
+// lane (slower than the scalar code, which keeps its independent sums in flight). With SSE2 (every x86-64) the sums run as one vector per
 // row, x, y and z side by side (vec3_sse.h): one load, one multiply and one add per row and
 // stencil entry where the scalar code has three of each. Each lane does the scalar code's
-// operations in its order. The stencils (2 MB on CesiumMan_loop2, read once per frame) are
-// prefetched 512 bytes ahead: their loads were the loop's stalls, and asking for them ahead
-// took ~2.5 % off a whole evaluation there (256 bytes ahead: ~1.5 %).
+// operations in its order. The stencils (megabytes, read once per frame) are prefetched 512
+// bytes ahead: their loads were the loop's stalls.
 // Positions and normals share the walk: the normals cost one more gather, multiply and add
-// per entry, where the normals of the refined triangles (extension version 1) cost a scatter
-// over every refined triangle, ~15 % of an evaluation on CesiumMan_loop2. Each group's four
-// normals are normalised before they are stored (no second pass over the refined normals:
-// ~2 % of an evaluation there, measured in-process A/B).
+// per entry, where normals of the refined triangles would cost a scatter over every refined
+// triangle. Each group's four normals are normalised before they are stored (no second pass
+// over the refined normals). The figures behind these choices: docs/tuning.md.
 #include "prefetch.h"
 #include "refine.h"
 #include "vec3_sse.h"

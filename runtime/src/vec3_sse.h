@@ -38,8 +38,7 @@ struct Vec3Reader {
 // A whole-vector load of vectors[index] (x, y, z and whatever float follows it) from a buffer
 // with kVec3ReadPadding (memory.h) vectors after its last one, so that no load leaves the
 // buffer: Vec3Reader's job without its select of the copied tail (a compare and a conditional
-// move per load in the stencil walk and in displace's gather: ~2 % of an evaluation on
-// CesiumMan_loop2).
+// move per load in the stencil walk and in displace's gather).
 struct PaddedVec3Reader {
   const glm::vec3* vectors;
 

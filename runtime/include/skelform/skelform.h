@@ -289,9 +289,8 @@ typedef enum sf_method {
   SF_METHOD_FORCE_U32 = 0x7fffffff
 } sf_method;
 
-/* How the skin moves the skeletal mesh (SF_METHOD_SKELFORM with the skin driver). Since 0.4
- * the default bends limb joints along arcs; 0.3's default, plain linear blending, is
- * SF_SKELETON_LBS (a new value). */
+/* How the skin moves the skeletal mesh (SF_METHOD_SKELFORM with the skin driver): by default
+ * limb joints bend along arcs; SF_SKELETON_LBS is plain linear blending throughout. */
 typedef enum sf_skeleton_skinning {
   /* Default. Linear blending, except at the skin's limb joints (a parent-child joint with a
    * limb-like bone on each side) once they bend or twist past where linear blending folds the
@@ -304,7 +303,7 @@ typedef enum sf_skeleton_skinning {
    * inverse bind matrices. A mild pose gives the same output as SF_SKELETON_LBS, bit for bit. */
   SF_SKELETON_ARCS = 0,
   SF_SKELETON_DQS = 1, /* dual quaternion blending of every skeletal vertex */
-  SF_SKELETON_LBS = 2, /* linear blending of every skeletal vertex (0.3's default) */
+  SF_SKELETON_LBS = 2, /* linear blending of every skeletal vertex */
   SF_SKELETON_SKINNING_FORCE_U32 = 0x7fffffff
 } sf_skeleton_skinning;
 
