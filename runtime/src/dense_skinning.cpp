@@ -17,6 +17,22 @@ namespace skelform::runtime {
 
 namespace {
 
+// The loop every kernel shares: kernel(v, tangents) for every dense vertex, primitive by
+// primitive (`tangents`: the vertex's primitive has tangents to write).
+template <class Kernel>
+void for_each_dense_vertex(const Deformable& d, bool with_normals, const DenseOutput& out, Kernel&& kernel) {
+  for (const PrimitiveRecord& primitive : d.primitives) {
+    const uint32_t end = primitive.first_vertex + primitive.vertex_count;
+    const bool tangents = with_normals && primitive.has_tangents && out.tangents;
+    for (uint32_t v = primitive.first_vertex; v < end; ++v) kernel(v, tangents);
+  }
+}
+
+// A rest tangent through the blended matrix m's linear part, renormalised, w kept.
+inline glm::vec4 skinned_tangent(const float* m, const glm::vec4& rest) {
+  return glm::vec4(normalize_or(transform_vector(m, glm::vec3(rest)), glm::vec3(rest)), rest.w);
+}
+
 #if defined(__SSE2__)
 // LBS four lanes at a time, bit for bit the portable kernel's result: the blend adds w·row in
 // influence order (the same multiply and add per element), the rows are transposed to columns
@@ -33,50 +49,45 @@ void skin_linear_sse2(const Deformable& d, const JointAffine* joints, bool with_
   const float* weight = d.dense_weights.data();
   const glm::vec3* rest_positions = d.rest_positions.data();
   const glm::vec3* rest_normals = d.rest_normals.data();
-  for (const PrimitiveRecord& primitive : d.primitives) {
-    const uint32_t end = primitive.first_vertex + primitive.vertex_count;
-    const bool tangents = with_normals && primitive.has_tangents && out.tangents;
-    for (uint32_t v = primitive.first_vertex; v < end; ++v) {
-      const size_t first = size_t(v) * influences;
-      __m128 r0 = _mm_setzero_ps(), r1 = r0, r2 = r0;
-      for (uint32_t k = 0; k < influences; ++k) {
-        const __m128 w = _mm_set1_ps(weight[first + k]);
-        const float* m = joints[joint_index[first + k]].m;
-        r0 = _mm_add_ps(r0, _mm_mul_ps(w, _mm_loadu_ps(m)));
-        r1 = _mm_add_ps(r1, _mm_mul_ps(w, _mm_loadu_ps(m + 4)));
-        r2 = _mm_add_ps(r2, _mm_mul_ps(w, _mm_loadu_ps(m + 8)));
-      }
-      __m128 c0 = r0, c1 = r1, c2 = r2, c3 = _mm_setzero_ps();
-      _MM_TRANSPOSE4_PS(c0, c1, c2, c3);
-      const glm::vec3 p = rest_positions[v];
-      const __m128 xy = _mm_add_ps(_mm_mul_ps(c0, _mm_set1_ps(p.x)), _mm_mul_ps(c1, _mm_set1_ps(p.y)));
-      store3(out.positions[v], _mm_add_ps(_mm_add_ps(xy, _mm_mul_ps(c2, _mm_set1_ps(p.z))), c3));
-      if (with_normals) {
-        const glm::vec3 n = rest_normals[v];
-        const __m128 t = _mm_add_ps(_mm_add_ps(_mm_mul_ps(c0, _mm_set1_ps(n.x)), _mm_mul_ps(c1, _mm_set1_ps(n.y))),
-                                    _mm_mul_ps(c2, _mm_set1_ps(n.z)));
-        const __m128 sq = _mm_mul_ps(t, t);
-        const __m128 sum = _mm_add_ss(_mm_add_ss(sq, _mm_shuffle_ps(sq, sq, 1)), _mm_movehl_ps(sq, sq));
-        const float length = _mm_cvtss_f32(_mm_sqrt_ss(sum));
-        if (length > 1e-30f && std::isfinite(length))
-          store3(out.normals[v], _mm_div_ps(t, _mm_set1_ps(length)));
-        else
-          out.normals[v] = n;
-      }
-      if (tangents) {
-        alignas(16) float m[12];
-        _mm_store_ps(m, r0);
-        _mm_store_ps(m + 4, r1);
-        _mm_store_ps(m + 8, r2);
-        const glm::vec4 rest = d.rest_tangents[v];
-        out.tangents[v] = glm::vec4(normalize_or(transform_vector(m, glm::vec3(rest)), glm::vec3(rest)), rest.w);
-      }
+  for_each_dense_vertex(d, with_normals, out, [&](uint32_t v, bool tangents) {
+    const size_t first = size_t(v) * influences;
+    __m128 r0 = _mm_setzero_ps(), r1 = r0, r2 = r0;
+    for (uint32_t k = 0; k < influences; ++k) {
+      const __m128 w = _mm_set1_ps(weight[first + k]);
+      const float* m = joints[joint_index[first + k]].m;
+      r0 = _mm_add_ps(r0, _mm_mul_ps(w, _mm_loadu_ps(m)));
+      r1 = _mm_add_ps(r1, _mm_mul_ps(w, _mm_loadu_ps(m + 4)));
+      r2 = _mm_add_ps(r2, _mm_mul_ps(w, _mm_loadu_ps(m + 8)));
     }
-  }
+    __m128 c0 = r0, c1 = r1, c2 = r2, c3 = _mm_setzero_ps();
+    _MM_TRANSPOSE4_PS(c0, c1, c2, c3);
+    const glm::vec3 p = rest_positions[v];
+    const __m128 xy = _mm_add_ps(_mm_mul_ps(c0, _mm_set1_ps(p.x)), _mm_mul_ps(c1, _mm_set1_ps(p.y)));
+    store3(out.positions[v], _mm_add_ps(_mm_add_ps(xy, _mm_mul_ps(c2, _mm_set1_ps(p.z))), c3));
+    if (with_normals) {
+      const glm::vec3 n = rest_normals[v];
+      const __m128 t = _mm_add_ps(_mm_add_ps(_mm_mul_ps(c0, _mm_set1_ps(n.x)), _mm_mul_ps(c1, _mm_set1_ps(n.y))),
+                                  _mm_mul_ps(c2, _mm_set1_ps(n.z)));
+      const __m128 sq = _mm_mul_ps(t, t);
+      const __m128 sum = _mm_add_ss(_mm_add_ss(sq, _mm_shuffle_ps(sq, sq, 1)), _mm_movehl_ps(sq, sq));
+      const float length = _mm_cvtss_f32(_mm_sqrt_ss(sum));
+      if (length > 1e-30f && std::isfinite(length))
+        store3(out.normals[v], _mm_div_ps(t, _mm_set1_ps(length)));
+      else
+        out.normals[v] = n;
+    }
+    if (tangents) {
+      alignas(16) float m[12];
+      _mm_store_ps(m, r0);
+      _mm_store_ps(m + 4, r1);
+      _mm_store_ps(m + 8, r2);
+      out.tangents[v] = skinned_tangent(m, d.rest_tangents[v]);
+    }
+  });
 }
 #endif
 
-// One loop per blend so the per-vertex kernel is a direct call the compiler can inline.
+// One instantiation per blend so the per-vertex kernel is a direct call the compiler can inline.
 template <class Joint, void (*BlendFn)(const Joint*, const uint16_t*, const float*, uint32_t, float*)>
 void skin_vertices(const Deformable& d, const Joint* joints, bool with_normals, const DenseOutput& out) {
   const uint32_t influences = d.influences;
@@ -84,21 +95,14 @@ void skin_vertices(const Deformable& d, const Joint* joints, bool with_normals, 
   const float* weight = d.dense_weights.data();
   const glm::vec3* rest_positions = d.rest_positions.data();
   const glm::vec3* rest_normals = d.rest_normals.data();
-  for (const PrimitiveRecord& primitive : d.primitives) {
-    const uint32_t end = primitive.first_vertex + primitive.vertex_count;
-    const bool tangents = with_normals && primitive.has_tangents && out.tangents;
-    for (uint32_t v = primitive.first_vertex; v < end; ++v) {
-      const size_t first = size_t(v) * influences;
-      float m[12];
-      BlendFn(joints, joint_index + first, weight + first, influences, m);
-      out.positions[v] = transform_point(m, rest_positions[v]);
-      if (with_normals) out.normals[v] = normalize_or(transform_vector(m, rest_normals[v]), rest_normals[v]);
-      if (tangents) {
-        const glm::vec4 rest = d.rest_tangents[v];
-        out.tangents[v] = glm::vec4(normalize_or(transform_vector(m, glm::vec3(rest)), glm::vec3(rest)), rest.w);
-      }
-    }
-  }
+  for_each_dense_vertex(d, with_normals, out, [&](uint32_t v, bool tangents) {
+    const size_t first = size_t(v) * influences;
+    float m[12];
+    BlendFn(joints, joint_index + first, weight + first, influences, m);
+    out.positions[v] = transform_point(m, rest_positions[v]);
+    if (with_normals) out.normals[v] = normalize_or(transform_vector(m, rest_normals[v]), rest_normals[v]);
+    if (tangents) out.tangents[v] = skinned_tangent(m, d.rest_tangents[v]);
+  });
 }
 
 }  // namespace
