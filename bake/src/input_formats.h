@@ -44,6 +44,16 @@ inline void append_fan(const std::vector<uint32_t>& polygon, std::vector<Triangl
   for (size_t i = 1; i + 1 < polygon.size(); ++i) triangles.push_back(Triangle{polygon[0], polygon[i], polygon[i + 1]});
 }
 
+// The one primitive of a single-mesh file (OBJ, PLY, OFF): all `vertex_count` vertices and
+// every triangle, indexed.
+inline void add_whole_primitive(InputMesh& mesh, size_t vertex_count) {
+  InputPrimitive whole;
+  whole.vertex_count = static_cast<uint32_t>(vertex_count);
+  whole.triangle_count = static_cast<uint32_t>(mesh.triangles.size());
+  whole.indexed = true;
+  mesh.primitives.push_back(whole);
+}
+
 inline bool is_space(char c) { return c == ' ' || c == '\t' || c == '\r' || c == '\f' || c == '\v'; }
 
 // Splits text into lines (any of \n, \r\n) and each line into whitespace-separated tokens,

@@ -78,11 +78,7 @@ InputMesh load_obj(std::string_view text, const std::string& name) {
   if (vertex_count == 0) throw Error(ErrorKind::invalid_input, name + ": no vertices (no 'v' lines); not an OBJ mesh?");
   if (mesh.triangles.empty()) throw Error(ErrorKind::invalid_input, name + ": no faces (no 'f' lines)");
 
-  InputPrimitive whole;
-  whole.vertex_count = static_cast<uint32_t>(vertex_count);
-  whole.triangle_count = static_cast<uint32_t>(mesh.triangles.size());
-  whole.indexed = true;
-  mesh.primitives.push_back(whole);
+  add_whole_primitive(mesh, vertex_count);
   return mesh;
 }
 

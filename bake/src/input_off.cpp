@@ -130,11 +130,7 @@ InputMesh load_off(std::string_view text, const std::string& name) {
     append_fan(polygon, mesh.triangles, name);
   }
 
-  InputPrimitive whole;
-  whole.vertex_count = static_cast<uint32_t>(mesh.positions.size());
-  whole.triangle_count = static_cast<uint32_t>(mesh.triangles.size());
-  whole.indexed = true;
-  mesh.primitives.push_back(whole);
+  add_whole_primitive(mesh, mesh.positions.size());
   return mesh;
 }
 

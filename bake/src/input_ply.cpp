@@ -313,11 +313,7 @@ InputMesh load_ply(const std::vector<unsigned char>& bytes, const std::string& n
         fail(name, "element 'face' " + std::to_string(face_of_triangle[t]) + ": vertex index " + std::to_string(v) +
                        " out of range (" + std::to_string(mesh.positions.size()) + " vertices)");
 
-  InputPrimitive whole;
-  whole.vertex_count = static_cast<uint32_t>(mesh.positions.size());
-  whole.triangle_count = static_cast<uint32_t>(mesh.triangles.size());
-  whole.indexed = true;
-  mesh.primitives.push_back(whole);
+  add_whole_primitive(mesh, mesh.positions.size());
   return mesh;
 }
 
