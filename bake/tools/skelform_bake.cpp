@@ -6,6 +6,7 @@
 //
 // Every failure prints one line "skelform-bake: error: ..." and exits non-zero (codes in
 // --help); outputs are written atomically, so a failed run never leaves a partial file.
+#include "cli_bake.h"
 #include "progress.h"
 #include "skelform/bake/bake.h"
 #include "skelform/bake/gltf_access.h"
@@ -31,7 +32,7 @@ namespace {
 
 using namespace skelform::bake;
 
-enum ExitCode { kExitOk = 0, kExitUsage = 1, kExitInvalidInput = 2, kExitIo = 3, kExitInternal = 4 };
+using skelform::cli::kExitOk;
 
 const char* const kUsage =
     "usage: skelform-bake IN.glb|IN.gltf -o OUT.glb|OUT.gltf [options]\n"
@@ -65,10 +66,6 @@ const char* const kUsage =
     "\n"
     "\n";
 
-const char* const kExitCodes =
-    "Exit codes: 0 success, 1 bad command line, 2 invalid or unsupported input,\n"
-    "            3 file could not be read or written, 4 internal error.\n";
-
 // The --help text: the limits come from the constants that enforce them.
 std::string usage() {
   const std::string limits =
@@ -88,7 +85,7 @@ std::string usage() {
       " vertices: the welded input of the skeleton\n"
       "                    command; the control mesh of a bake (lower --target-triangles)\n"
       "\n";
-  return kUsage + limits + kExitCodes;
+  return kUsage + limits + skelform::cli::kExitCodeHelp;
 }
 
 struct Arguments {
@@ -104,56 +101,42 @@ struct Arguments {
   bool quiet = false;
 };
 
-int parse_int(const std::string& flag, const std::string& text, int min_value, int max_value) {
-  char* end = nullptr;
-  const long value = std::strtol(text.c_str(), &end, 10);
-  if (text.empty() || *end != '\0' || value < min_value || value > max_value)
-    throw Error(ErrorKind::usage, flag + " expects an integer in [" + std::to_string(min_value) + ", " +
-                                      std::to_string(max_value) + "], got '" + text + "'");
-  return static_cast<int>(value);
-}
-
 bool has_extension(const std::string& path, std::initializer_list<const char*> extensions) {
-  const size_t dot = path.find_last_of('.');
-  if (dot == std::string::npos) return false;
-  std::string extension = path.substr(dot);
-  for (char& c : extension) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
-  for (const char* candidate : extensions)
-    if (extension == candidate) return true;
-  return false;
+  const std::string extension = skelform::cli::lowercase_extension(path);
+  return std::any_of(extensions.begin(), extensions.end(), [&](const char* e) { return extension == e; });
 }
 
 Arguments parse_arguments(int argc, char** argv) {
   Arguments args;
   std::vector<std::string> positional;
-  for (int i = 1; i < argc; ++i) {
-    const std::string arg = argv[i];
-    auto value = [&]() -> std::string {
-      if (i + 1 >= argc) throw Error(ErrorKind::usage, arg + " needs a value");
-      return argv[++i];
-    };
+  skelform::cli::ArgumentCursor cursor(argc, argv);
+  auto integer = [&](unsigned long lo, unsigned long hi) {
+    return static_cast<int>(skelform::cli::parse_integer(cursor.arg(), cursor.value(), lo, hi));
+  };
+  while (cursor.next()) {
+    const std::string& arg = cursor.arg();
     if (arg == "-o" || arg == "--output")
-      args.output = value();
+      args.output = cursor.value();
     else if (arg == "--tangent-flow-steps")
-      args.tangent_flow_steps = parse_int(arg, value(), 0, 100000);
+      args.tangent_flow_steps = integer(0, 100000);
     else if (arg == "--target-triangles")
-      args.target_triangles = parse_int(arg, value(), 16, 10000000);
+      args.target_triangles = integer(16, 10000000);
     else if (arg == "--level")
-      args.level = parse_int(arg, value(), 0, 6);
+      args.level = integer(0, 6);
     else if (arg == "--voronoi-points")
-      args.voronoi_points = value();
+      args.voronoi_points = cursor.value();
     else if (arg == "--all-meshes")
       args.all_meshes = true;
     else if (arg == "-v" || arg == "--verbose")
       args.verbose = true;
     else if (arg == "-q" || arg == "--quiet")
       args.quiet = true;
-    else if (arg.size() > 1 && arg[0] == '-')
-      throw Error(ErrorKind::usage, "unknown option " + arg);
+    else if (cursor.is_option())
+      cursor.unknown();
     else
       positional.push_back(arg);
   }
-  if (positional.empty()) throw Error(ErrorKind::usage, "missing command (see --help)");
+  if (positional.empty()) throw Error(ErrorKind::usage, "missing command");
   if (positional[0] == "skeleton") {
     args.command = "skeleton";
     if (positional.size() != 2) throw Error(ErrorKind::usage, "skeleton takes exactly one input file");
@@ -314,39 +297,11 @@ int run_bake(const Arguments& args) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  for (int i = 1; i < argc; ++i) {
-    const std::string arg = argv[i];
-    if (arg == "-h" || arg == "--help") {
-      std::fputs(usage().c_str(), stdout);
-      return kExitOk;
-    }
-    if (arg == "--version") {
-      const uint32_t v = sf_version();
-      std::printf("skelform-bake %u.%u.%u\n", v / 10000, v / 100 % 100, v % 100);
-      return kExitOk;
-    }
-  }
-  try {
-    const Arguments args = parse_arguments(argc, argv);
-    return args.command == "skeleton" ? run_skeleton(args) : run_bake(args);
-  } catch (const Error& e) {
-    std::fprintf(stderr, "skelform-bake: error: %s\n", e.what());
-    switch (e.kind()) {
-      case ErrorKind::usage:
-        std::fputs("(see skelform-bake --help)\n", stderr);
-        return kExitUsage;
-      case ErrorKind::io:
-        return kExitIo;
-      case ErrorKind::invalid_input:
-      case ErrorKind::unsupported:
-        return kExitInvalidInput;
-    }
-    return kExitInternal;
-  } catch (const std::bad_alloc&) {
-    std::fprintf(stderr, "skelform-bake: error: out of memory\n");
-    return kExitInternal;
-  } catch (const std::exception& e) {
-    std::fprintf(stderr, "skelform-bake: internal error: %s\n", e.what());
-    return kExitInternal;
-  }
+  return skelform::cli::run_main(
+      "skelform-bake", usage(), argc, argv,
+      [&] {
+        const Arguments args = parse_arguments(argc, argv);
+        return args.command == "skeleton" ? run_skeleton(args) : run_bake(args);
+      },
+      skelform::cli::classify_bake_error);
 }

@@ -41,22 +41,13 @@
 
 namespace {
 
+using namespace skelform::cli;  // exit codes, fail, option parsing
 using skelform::samples::AnimationFile;
 using skelform::samples::AnimationRange;
 using skelform::samples::AssetHandle;
 using skelform::samples::DeformableFrames;
-using skelform::samples::exit_code_of;
-using skelform::samples::fail;
 using skelform::samples::GltfAnimation;
-using skelform::samples::kExitInternal;
-using skelform::samples::kExitInvalidInput;
-using skelform::samples::kExitIo;
-using skelform::samples::kExitOk;
-using skelform::samples::kExitUsage;
 using skelform::samples::LoadedAsset;
-using skelform::samples::lowercase_extension;
-using skelform::samples::parse_integer;
-using skelform::samples::parse_positive;
 using skelform::samples::PrimitiveFrames;
 using Clock = std::chrono::steady_clock;
 
@@ -98,24 +89,21 @@ struct Arguments {
 Arguments parse_arguments(int argc, char** argv) {
   Arguments args;
   std::vector<std::string> positional;
-  for (int i = 1; i < argc; ++i) {
-    const std::string arg = argv[i];
-    auto value = [&]() -> std::string {
-      if (i + 1 >= argc) fail(kExitUsage, arg + " needs a value");
-      return argv[++i];
-    };
+  skelform::cli::ArgumentCursor cursor(argc, argv);
+  while (cursor.next()) {
+    const std::string& arg = cursor.arg();
     if (arg == "-o" || arg == "--output")
-      args.output = value();
+      args.output = cursor.value();
     else if (arg == "--fps")
-      args.fps = parse_positive(arg, value(), 1000.0);
+      args.fps = parse_positive(arg, cursor.value(), 1000.0);
     else if (arg == "--max-frames")
-      args.max_frames = parse_integer(arg, value(), 1, 100000);
+      args.max_frames = parse_integer(arg, cursor.value(), 1, 100000);
     else if (arg == "-q" || arg == "--quiet")
       args.quiet = true;
     else if (arg == "--contacts")
       args.contacts = true;
-    else if (arg.size() > 1 && arg[0] == '-')
-      fail(kExitUsage, "unknown option " + arg);
+    else if (cursor.is_option())
+      cursor.unknown();
     else
       positional.push_back(arg);
   }
@@ -395,11 +383,7 @@ int run(const Arguments& args) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  return skelform::samples::run_main("skelform-animate", kUsage, argc, argv, [&] {
-    try {
-      return run(parse_arguments(argc, argv));
-    } catch (const skelform::bake::Error& e) {  // the in-memory bake's failures
-      skelform::samples::fail(exit_code_of(e), e.what());
-    }
-  });
+  return skelform::cli::run_main(
+      "skelform-animate", kUsage, argc, argv, [&] { return run(parse_arguments(argc, argv)); },
+      skelform::samples::classify_sample_error);
 }

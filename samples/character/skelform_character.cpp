@@ -6,6 +6,7 @@
 // .glb: the character rigged and animated in code (procedural_rig.h): 19 joints, computed
 // skin weights and normals, a "walk" and a "bend" animation; a standard skinned glTF 2.0
 // file that skelform-animate (or skelform-bake) takes. .obj: the bare surface.
+#include "cli_bake.h"
 #include "skelform/bake/output.h"
 #include "skelform/bake/procedural.h"
 #include "skelform/bake/procedural_rig.h"
@@ -18,62 +19,42 @@
 
 namespace {
 
-double parse_positive(const char* flag, const char* text) {
-  char* end = nullptr;
-  const double value = std::strtod(text, &end);
-  if (*text == '\0' || *end != '\0' || !(value > 0.0) || value > 1e6) {
-    std::fprintf(stderr, "skelform-character: error: %s expects a positive number, got '%s'\n", flag, text);
-    std::exit(1);
-  }
-  return value;
-}
+using skelform::cli::fail;
+using skelform::cli::kExitUsage;
 
-}  // namespace
+const char* const kUsage =
+    "usage: skelform-character -o OUT.glb|OUT.obj [--height H (1.8)] [--resolution R (0.02)]\n"
+    "\n"
+    "  .glb  the character rigged (19 joints, computed skin weights, normals) and animated\n"
+    "        in code: animations \"walk\" (1 s cycle) and \"bend\" (3 s, knees and elbows\n"
+    "        at 120 degrees, spine twist); standard skinned glTF 2.0\n"
+    "  .obj  the bare surface\n"
+    "\n"
+    "Exit codes: 0 success, 1 bad command line, 3 file could not be written.\n";
 
-int main(int argc, char** argv) {
+int run(int argc, char** argv) {
   using namespace skelform::bake;
   CharacterOptions options;
   std::string output;
-  for (int i = 1; i < argc; ++i) {
-    const std::string arg = argv[i];
-    const bool has_value = i + 1 < argc;
-    if ((arg == "-o" || arg == "--output") && has_value)
-      output = argv[++i];
-    else if (arg == "--height" && has_value)
-      options.height = parse_positive("--height", argv[++i]);
-    else if (arg == "--resolution" && has_value)
-      options.resolution = parse_positive("--resolution", argv[++i]);
-    else if (arg == "-h" || arg == "--help") {
-      std::puts(
-          "usage: skelform-character -o OUT.glb|OUT.obj [--height H (1.8)] [--resolution R (0.02)]\n"
-          "\n"
-          "  .glb  the character rigged (19 joints, computed skin weights, normals) and animated\n"
-          "        in code: animations \"walk\" (1 s cycle) and \"bend\" (3 s, knees and elbows\n"
-          "        at 120 degrees, spine twist); standard skinned glTF 2.0\n"
-          "  .obj  the bare surface\n"
-          "\n"
-          "Exit codes: 0 success, 1 bad command line, 3 file could not be written.");
-      return 0;
-    } else {
-      std::fprintf(stderr, "skelform-character: error: unexpected argument '%s' (see --help)\n", arg.c_str());
-      return 1;
-    }
+  skelform::cli::ArgumentCursor cursor(argc, argv);
+  while (cursor.next()) {
+    const std::string& arg = cursor.arg();
+    if (arg == "-o" || arg == "--output")
+      output = cursor.value();
+    else if (arg == "--height")
+      options.height = skelform::cli::parse_positive(arg, cursor.value(), 1e6);
+    else if (arg == "--resolution")
+      options.resolution = skelform::cli::parse_positive(arg, cursor.value(), 1e6);
+    else if (cursor.is_option())
+      cursor.unknown();
+    else
+      fail(kExitUsage, "unexpected argument '" + arg + "'");
   }
-  if (output.empty()) {
-    std::fputs("skelform-character: error: missing -o OUT.glb|OUT.obj (see --help)\n", stderr);
-    return 1;
-  }
-  std::string extension = output.size() >= 4 ? output.substr(output.size() - 4) : "";
-  for (char& c : extension) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
-  if (extension != ".glb" && extension != ".obj") {
-    std::fputs("skelform-character: error: the output must be .glb or .obj\n", stderr);
-    return 1;
-  }
-  if (options.resolution > options.height / 8) {
-    std::fputs("skelform-character: error: --resolution must be at most height / 8\n", stderr);
-    return 1;
-  }
-  try {
+  if (output.empty()) fail(kExitUsage, "missing -o OUT.glb|OUT.obj");
+  const std::string extension = skelform::cli::lowercase_extension(output);
+  if (extension != ".glb" && extension != ".obj") fail(kExitUsage, "the output must be .glb or .obj");
+  if (options.resolution > options.height / 8) fail(kExitUsage, "--resolution must be at most height / 8");
+  {
     const auto start = std::chrono::steady_clock::now();
     if (extension == ".glb") {
       const RiggedCharacter character = make_rigged_character(options);
@@ -94,9 +75,13 @@ int main(int argc, char** argv) {
       std::printf("skelform-character: %zu vertices, %zu triangles, %.0f ms -> %s\n", character.positions.size(),
                   character.triangles.size(), ms, output.c_str());
     }
-  } catch (const Error& e) {
-    std::fprintf(stderr, "skelform-character: error: %s\n", e.what());
-    return e.kind() == ErrorKind::usage ? 1 : 3;
   }
   return 0;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  return skelform::cli::run_main(
+      "skelform-character", kUsage, argc, argv, [&] { return run(argc, argv); }, skelform::cli::classify_bake_error);
 }

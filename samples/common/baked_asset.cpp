@@ -1,6 +1,6 @@
 #include "baked_asset.h"
 
-#include "cli.h"
+#include "cli_bake.h"
 #include "gltf_animation.h"
 #include "skelform/bake/gltf_writer.h"
 #include "skelform/bake/input.h"
@@ -14,6 +14,12 @@
 #include <sstream>
 
 namespace skelform::samples {
+
+using cli::exit_code_of;
+using cli::fail;
+using cli::kExitInvalidInput;
+using cli::kExitIo;
+
 namespace {
 
 constexpr const char* kExtensionName = "SKELFORM_skeletal_deformation";
@@ -64,17 +70,6 @@ bool has_skelform_extension(const std::string& bytes, const std::string& name) {
   return std::any_of(used->begin(), used->end(), [](const nlohmann::json& e) { return e == kExtensionName; });
 }
 
-int exit_code_of(const bake::Error& error) {
-  switch (error.kind()) {
-    case bake::ErrorKind::usage:
-      return kExitUsage;
-    case bake::ErrorKind::io:
-      return kExitIo;
-    default:
-      return kExitInvalidInput;
-  }
-}
-
 LoadedAsset load_or_bake(const std::string& path,
                          const std::function<void(const char* stage, size_t deformable, size_t count)>& progress,
                          const std::function<void()>& baking) {
@@ -110,6 +105,11 @@ LoadedAsset load_or_bake(const std::string& path,
     fail(exit_code_of(result), text.rfind(path, 0) == 0 ? text : path + ": " + text);
   }
   return loaded;
+}
+
+int classify_sample_error(const std::exception& e) {
+  const int code = classify_gltf_error(e);
+  return code >= 0 ? code : cli::classify_bake_error(e);
 }
 
 }  // namespace skelform::samples

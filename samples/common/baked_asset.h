@@ -53,7 +53,8 @@ LoadedAsset load_or_bake(const std::string& path,
                          const std::function<void(const char* stage, size_t deformable, size_t count)>& progress = {},
                          const std::function<void()>& baking = {});
 
-// The exit code (cli.h) of a baker failure.
-int exit_code_of(const bake::Error& error);
+// run_main's `classify` (cli.h) for the tools that read glTF and bake in memory: GltfError and
+// bake::Error (-1 for any other exception).
+int classify_sample_error(const std::exception& e);
 
 }  // namespace skelform::samples

@@ -3,6 +3,8 @@
 // precision, converted to float only for the returned matrices.
 #include "gltf_animation.h"
 
+#include "cli.h"
+
 #include "gltf_read.h"  // the runtime's validated accessor reader (internal, linked from skelform::runtime)
 
 #include <tiny_gltf.h>  // the TinyGLTF::TinyGLTF shared library: no TINYGLTF_IMPLEMENTATION here
@@ -638,6 +640,10 @@ std::vector<uint32_t> GltfAnimation::primitive_triangles(size_t mesh, size_t pri
     throw GltfError(impl_->name + ": " + what + " has mode " + std::to_string(mode) + ", not triangles");
   }
   return triangles;
+}
+
+int classify_gltf_error(const std::exception& e) {
+  return dynamic_cast<const GltfError*>(&e) ? cli::kExitInvalidInput : -1;
 }
 
 }  // namespace skelform::samples

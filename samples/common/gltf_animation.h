@@ -45,6 +45,9 @@ class GltfError : public std::runtime_error {
   using std::runtime_error::runtime_error;
 };
 
+// run_main's `classify` (cli.h) for a GltfError: invalid input (-1 for any other exception).
+int classify_gltf_error(const std::exception& e);
+
 // One animation of the file.
 struct AnimationInfo {
   std::string name;  // the glTF name, or "animation N" when it has none

@@ -11,6 +11,10 @@
 
 namespace skelform::samples {
 
+using cli::fail;
+using cli::kExitInvalidInput;
+using cli::kExitIo;
+
 HandleSet parse_handles(const std::string& text, const std::string& name) {
   nlohmann::json doc;
   try {

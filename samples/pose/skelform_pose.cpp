@@ -36,16 +36,9 @@
 
 namespace {
 
-using skelform::samples::exit_code_of;
-using skelform::samples::fail;
+using namespace skelform::cli;  // exit codes, fail, option parsing
 using skelform::samples::GltfAnimation;
 using skelform::samples::HandleSet;
-using skelform::samples::kExitInternal;
-using skelform::samples::kExitInvalidInput;
-using skelform::samples::kExitIo;
-using skelform::samples::kExitOk;
-using skelform::samples::kExitUsage;
-using skelform::samples::lowercase_extension;
 using skelform::samples::read_handles;
 
 const char* const kUsage =
@@ -97,34 +90,15 @@ struct Arguments {
   bool quiet = false;
 };
 
-unsigned long parse_index(const std::string& flag, const std::string& text) {
-  char* end = nullptr;
-  errno = 0;
-  const unsigned long value = std::strtoul(text.c_str(), &end, 10);
-  if (text.empty() || text[0] == '-' || *end != '\0' || errno == ERANGE || value > 0x7fffffffUL)
-    fail(kExitUsage, flag + " expects a non-negative integer, got '" + text + "'");
-  return value;
-}
-
-double parse_time(const std::string& text) {
-  char* end = nullptr;
-  const double value = std::strtod(text.c_str(), &end);
-  if (text.empty() || *end != '\0' || !std::isfinite(value))
-    fail(kExitUsage, "--time expects seconds, got '" + text + "'");
-  return value;
-}
-
 Arguments parse_arguments(int argc, char** argv) {
   Arguments args;
   std::vector<std::string> positional;
-  for (int i = 1; i < argc; ++i) {
-    const std::string arg = argv[i];
-    auto value = [&]() -> std::string {
-      if (i + 1 >= argc) fail(kExitUsage, arg + " needs a value");
-      return argv[++i];
-    };
+  skelform::cli::ArgumentCursor cursor(argc, argv);
+  constexpr unsigned long kLargestIndex = 0x7fffffffUL;
+  while (cursor.next()) {
+    const std::string& arg = cursor.arg();
     if (arg == "-o" || arg == "--output")
-      args.output = value();
+      args.output = cursor.value();
     else if (arg == "--rest")
       args.rest = true;
     else if (arg == "--bind")
@@ -132,27 +106,20 @@ Arguments parse_arguments(int argc, char** argv) {
     else if (arg == "--static")
       args.static_pose = true;
     else if (arg == "--anim")
-      args.animation = parse_index(arg, value());
+      args.animation = skelform::cli::parse_integer(arg, cursor.value(), 0, kLargestIndex);
     else if (arg == "--time")
-      args.time = parse_time(value());
+      args.time = skelform::cli::parse_finite(arg, cursor.value());
     else if (arg == "--handles")
-      args.handles = value();
+      args.handles = cursor.value();
     else if (arg == "--deformable")
-      args.deformable = static_cast<uint32_t>(parse_index(arg, value()));
+      args.deformable = static_cast<uint32_t>(skelform::cli::parse_integer(arg, cursor.value(), 0, kLargestIndex));
     else if (arg == "--method") {
-      const std::string method = value();
-      if (method == "skelform")
-        args.method = SF_METHOD_SKELFORM;
-      else if (method == "lbs")
-        args.method = SF_METHOD_LBS;
-      else if (method == "dqs")
-        args.method = SF_METHOD_DQS;
-      else
-        fail(kExitUsage, "--method must be skelform, lbs or dqs, got '" + method + "'");
+      constexpr uint32_t kMethods[] = {SF_METHOD_SKELFORM, SF_METHOD_LBS, SF_METHOD_DQS};
+      args.method = kMethods[skelform::cli::parse_choice(arg, cursor.value(), {"skelform", "lbs", "dqs"})];
     } else if (arg == "-q" || arg == "--quiet")
       args.quiet = true;
-    else if (arg.size() > 1 && arg[0] == '-')
-      fail(kExitUsage, "unknown option " + arg);
+    else if (cursor.is_option())
+      cursor.unknown();
     else
       positional.push_back(arg);
   }
@@ -376,6 +343,7 @@ int run(const Arguments& args) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  return skelform::samples::run_main("skelform-pose", kUsage, argc, argv,
-                                     [&] { return run(parse_arguments(argc, argv)); });
+  return skelform::cli::run_main(
+      "skelform-pose", kUsage, argc, argv, [&] { return run(parse_arguments(argc, argv)); },
+      skelform::samples::classify_gltf_error);
 }

@@ -43,6 +43,7 @@
 
 namespace {
 
+using namespace skelform::cli;
 using namespace skelform::samples;
 
 const char* const kUsage =
@@ -109,54 +110,31 @@ const char* const kLines[] = {"worse-frames", "pair-share", "volume", "rigid", "
 
 Arguments parse_arguments(int argc, char** argv) {
   Arguments args;
-  for (int i = 1; i < argc; ++i) {
-    const std::string arg = argv[i];
-    auto value = [&]() -> std::string {
-      if (i + 1 >= argc) fail(kExitUsage, arg + " needs a value");
-      return argv[++i];
-    };
+  skelform::cli::ArgumentCursor cursor(argc, argv);
+  while (cursor.next()) {
+    const std::string& arg = cursor.arg();
     if (arg == "--frames")
-      args.frames = parse_integer(arg, value(), 2, 10000);
+      args.frames = parse_integer(arg, cursor.value(), 2, 10000);
     else if (arg == "--fps")
-      args.fps = parse_positive(arg, value(), 1000.0);
+      args.fps = parse_positive(arg, cursor.value(), 1000.0);
     else if (arg == "-j")
-      args.jobs = unsigned(parse_integer(arg, value(), 1, 256));
+      args.jobs = unsigned(parse_integer(arg, cursor.value(), 1, 256));
     else if (arg == "--skeleton") {
-      const std::string v = value();
-      if (v == "arcs")
-        args.options.skeleton_skinning = SF_SKELETON_ARCS;
-      else if (v == "lbs")
-        args.options.skeleton_skinning = SF_SKELETON_LBS;
-      else if (v == "dqs")
-        args.options.skeleton_skinning = SF_SKELETON_DQS;
-      else
-        fail(kExitUsage, "--skeleton expects arcs, lbs or dqs, got '" + v + "'");
+      constexpr sf_skeleton_skinning kSkinnings[] = {SF_SKELETON_ARCS, SF_SKELETON_LBS, SF_SKELETON_DQS};
+      args.options.skeleton_skinning = kSkinnings[parse_choice(arg, cursor.value(), {"arcs", "lbs", "dqs"})];
     } else if (arg == "--reconstruction") {
-      const std::string v = value();
-      if (v == "carried")
-        args.options.reconstruction = SF_RECONSTRUCTION_CARRIED;
-      else if (v == "paper")
-        args.options.reconstruction = SF_RECONSTRUCTION_PAPER;
-      else
-        fail(kExitUsage, "--reconstruction expects carried or paper, got '" + v + "'");
+      constexpr sf_reconstruction kReconstructions[] = {SF_RECONSTRUCTION_CARRIED, SF_RECONSTRUCTION_PAPER};
+      args.options.reconstruction = kReconstructions[parse_choice(arg, cursor.value(), {"carried", "paper"})];
     } else if (arg == "--fairing") {
-      const std::string v = value();
-      if (v == "on")
-        args.options.fairing_flags = 0;
-      else if (v == "off")
-        args.options.fairing_flags = SF_FAIR_OFF;
-      else if (v == "folds")
-        args.options.fairing_flags = SF_FAIR_NO_INTERSECTION_FLOW;
-      else if (v == "intersections")
-        args.options.fairing_flags = SF_FAIR_NO_FOLD_FLOW;
-      else
-        fail(kExitUsage, "--fairing expects on, off, folds or intersections, got '" + v + "'");
+      constexpr uint32_t kFairings[] = {0, SF_FAIR_OFF, SF_FAIR_NO_INTERSECTION_FLOW, SF_FAIR_NO_FOLD_FLOW};
+      args.options.fairing_flags =
+          kFairings[parse_choice(arg, cursor.value(), {"on", "off", "folds", "intersections"})];
     } else if (arg == "--fairing-iterations") {
-      args.options.fairing_iterations = uint32_t(parse_integer(arg, value(), 1, 1000));
+      args.options.fairing_iterations = uint32_t(parse_integer(arg, cursor.value(), 1, 1000));
     } else if (arg == "--contacts")
       args.contacts = true;
     else if (arg == "--waive") {
-      const std::string line = value();
+      const std::string line = cursor.value();
       if (std::find_if(std::begin(kLines), std::end(kLines), [&](const char* l) { return line == l; }) ==
           std::end(kLines))
         fail(kExitUsage,
@@ -170,8 +148,8 @@ Arguments parse_arguments(int argc, char** argv) {
       args.check = true;
     else if (arg == "-q" || arg == "--quiet")
       args.quiet = true;
-    else if (arg.size() > 1 && arg[0] == '-')
-      fail(kExitUsage, "unknown option " + arg);
+    else if (cursor.is_option())
+      cursor.unknown();
     else
       args.inputs.push_back(arg);
   }
@@ -737,6 +715,7 @@ int run(const Arguments& args) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  return skelform::samples::run_main("skelform-quality", kUsage, argc, argv,
-                                     [&] { return run(parse_arguments(argc, argv)); });
+  return skelform::cli::run_main(
+      "skelform-quality", kUsage, argc, argv, [&] { return run(parse_arguments(argc, argv)); },
+      skelform::samples::classify_sample_error);
 }

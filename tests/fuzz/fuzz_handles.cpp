@@ -1,7 +1,7 @@
 // fuzz_handles: handle files (docs/handles-json.md) through the samples' reader
 // (samples/common/handle_file.h, as skelform-pose --handles reads them) and then the
 // runtime's handle driver, on the tests' procedural capsule (tests/capsule_glb.h), baked once
-// at start-up. A file the reader refuses ends with skelform::samples::Failure, as
+// at start-up. A file the reader refuses ends with skelform::cli::Failure, as
 // skelform-pose reports it; any other exception escapes as a finding. A file it accepts sets
 // the handles and targets and evaluates: SF_OK output must be finite.
 #include "capsule_glb.h"
@@ -64,7 +64,7 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   HandleSet set;
   try {
     set = skelform::samples::parse_handles(std::string(reinterpret_cast<const char*>(data), size), "fuzz.json");
-  } catch (const skelform::samples::Failure&) {
+  } catch (const skelform::cli::Failure&) {
     return 0;  // refused with a message, as skelform-pose would report it
   }
   evaluate_handles(set);

@@ -1,15 +1,18 @@
 #include "cli.h"
 
-#include "gltf_animation.h"
-
 #include <cctype>
 #include <cerrno>
-#include <cstdlib>
+#include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <filesystem>
 #include <new>
 
-namespace skelform::samples {
+namespace skelform::cli {
+
+const char* const kExitCodeHelp =
+    "Exit codes: 0 success, 1 bad command line, 2 invalid or unsupported input,\n"
+    "            3 file could not be read or written, 4 internal error.\n";
 
 void fail(int exit_code, const std::string& message) { throw Failure{exit_code, message}; }
 
@@ -48,17 +51,44 @@ double parse_positive(const std::string& option, const std::string& text, double
   return value;
 }
 
+double parse_finite(const std::string& option, const std::string& text) {
+  char* end = nullptr;
+  const double value = std::strtod(text.c_str(), &end);
+  if (text.empty() || *end != '\0' || !std::isfinite(value))
+    fail(kExitUsage, option + " expects a finite number, got '" + text + "'");
+  return value;
+}
+
+size_t parse_choice(const std::string& option, const std::string& text, std::initializer_list<const char*> choices) {
+  size_t index = 0;
+  std::string expected;
+  for (const char* choice : choices) {
+    if (text == choice) return index;
+    expected += (index == 0 ? "" : index + 1 == choices.size() ? " or " : ", ") + std::string(choice);
+    ++index;
+  }
+  fail(kExitUsage, option + " expects " + expected + ", got '" + text + "'");
+}
+
 std::string lowercase_extension(const std::string& path) {
   std::string extension = std::filesystem::path(path).extension().string();
   for (char& c : extension) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
   return extension;
 }
 
-int run_main(const char* name, const char* usage, int argc, char** argv, const std::function<int()>& run) {
+std::string ArgumentCursor::value() {
+  if (i_ + 1 >= argc_) fail(kExitUsage, arg_ + " needs a value");
+  return argv_[++i_];
+}
+
+void ArgumentCursor::unknown() const { fail(kExitUsage, "unknown option " + arg_); }
+
+int run_main(const char* name, const std::string& usage, int argc, char** argv, const std::function<int()>& run,
+             const std::function<int(const std::exception&)>& classify) {
   for (int i = 1; i < argc; ++i) {
     const std::string arg = argv[i];
     if (arg == "-h" || arg == "--help") {
-      std::fputs(usage, stdout);
+      std::fputs(usage.c_str(), stdout);
       return kExitOk;
     }
     if (arg == "--version") {
@@ -67,21 +97,25 @@ int run_main(const char* name, const char* usage, int argc, char** argv, const s
       return kExitOk;
     }
   }
+  auto report = [&](int code, const char* message) {
+    if (code == kExitUsage)
+      std::fprintf(stderr, "%s: error: %s (see %s --help)\n", name, message, name);
+    else
+      std::fprintf(stderr, "%s: error: %s\n", name, message);
+    return code;
+  };
   try {
     return run();
   } catch (const Failure& failure) {
-    std::fprintf(stderr, "%s: error: %s\n", name, failure.message.c_str());
-    return failure.exit_code;
-  } catch (const GltfError& e) {
-    std::fprintf(stderr, "%s: error: %s\n", name, e.what());
-    return kExitInvalidInput;
+    return report(failure.exit_code, failure.message.c_str());
   } catch (const std::bad_alloc&) {
-    std::fprintf(stderr, "%s: error: out of memory\n", name);
-    return kExitInternal;
+    return report(kExitInternal, "out of memory");
   } catch (const std::exception& e) {
+    const int code = classify ? classify(e) : -1;
+    if (code >= 0) return report(code, e.what());
     std::fprintf(stderr, "%s: internal error: %s\n", name, e.what());
     return kExitInternal;
   }
 }
 
-}  // namespace skelform::samples
+}  // namespace skelform::cli
