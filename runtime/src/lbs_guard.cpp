@@ -67,144 +67,213 @@ glm::vec3 blended_position(const Deformable& d, const ContactMesh& mesh, const D
   return s == 0.0f ? l : l + s * (skelform.positions[r] - l);
 }
 
+// One run of the intersection guard over the current factors (ws.factor), in named steps:
+// the first round's triangles (seed_*), each round's search for pairs LBS lacks (search),
+// and the halving of λ at their moved corners (lower).
+class GuardPass {
+ public:
+  GuardPass(const Deformable& d, const ContactMesh& mesh, const DenseOutput& skelform, const DenseOutput& lbs,
+            GuardWorkspace& ws)
+      : d_(d),
+        mesh_(mesh),
+        skelform_(skelform),
+        lbs_(lbs),
+        ws_(ws),
+        tri_(mesh.triangles.data()),
+        rep_(mesh.representative.data()),
+        h_(mesh.hierarchy) {}
+
+  // The positions of the vertices in `only` and the boxes of their triangles; lists the
+  // triangles with a moved corner among those.
+  void seed_incremental(const Array<uint32_t>& only) {
+    for (uint32_t v : only) {
+      ws_.positions[v] = blended_position(d_, mesh_, skelform_, lbs_, ws_, v);
+      ws_.moved[v] = ws_.positions[v] != lbs_.positions[rep_[v]];
+    }
+    for (uint32_t v : only)
+      for (uint32_t k = mesh_.incident_offsets[v]; k < mesh_.incident_offsets[v + 1]; ++k) {
+        const uint32_t t = mesh_.incident[k];
+        if (ws_.tested[t]) continue;
+        const uint32_t* c = tri_ + 3 * size_t(t);
+        float box[6];
+        triangle_box(ws_.positions[c[0]], ws_.positions[c[1]], ws_.positions[c[2]], box);
+        ws_.boxes.set(h_.slot[t], box);
+        if (ws_.moved[c[0]] || ws_.moved[c[1]] || ws_.moved[c[2]]) {
+          ws_.tested[t] = 1;
+          ws_.test_list.push_back(t);
+        }
+      }
+  }
+
+  // Every position and box, slot by slot, and the triangles with a moved corner. False when
+  // a position is not finite.
+  bool seed_all() {
+    bool finite = true;
+    for (uint32_t v = 0; v < mesh_.vertex_count; ++v) {
+      const glm::vec3 l = lbs_.positions[rep_[v]];
+      ws_.positions[v] = blended_position(d_, mesh_, skelform_, lbs_, ws_, v);
+      ws_.moved[v] = ws_.positions[v] != l;
+      finite &= std::isfinite(l.x + l.y + l.z + ws_.positions[v].x + ws_.positions[v].y + ws_.positions[v].z);
+    }
+    if (!finite) return false;
+    const size_t stride = h_.slot_stride();
+    for (uint32_t i = 0; i < mesh_.triangle_count; ++i) {
+      const uint32_t t = h_.order[i];
+      const uint32_t c[3] = {h_.corners[i], h_.corners[stride + i], h_.corners[2 * stride + i]};  // slot order
+      float box[6];
+      triangle_box(ws_.positions[c[0]], ws_.positions[c[1]], ws_.positions[c[2]], box);
+      ws_.boxes.set(i, box);
+      const bool moved = ws_.moved[c[0]] || ws_.moved[c[1]] || ws_.moved[c[2]];
+      ws_.tested[t] = moved;
+      if (moved) ws_.test_list.push_back(t);
+    }
+    return true;
+  }
+
+  // Round `round`'s search over ws.test_list: flags the corners of every pair LBS lacks
+  // (ws.flagged_list) and sets `added`. Round one (0) meets the hierarchy against itself on
+  // the tight boxes at x; later rounds query the reach (below). False when the budget ran out.
+  bool search(uint32_t round, bool& added) {
+    added = false;
+    if (round == 0)
+      return self_pairs_triangle_hierarchy(h_, ws_.node_boxes.data(), ws_.boxes, ws_.tested.data(),
+                                           ws_.node_flags.data(), ws_.leaf_flags.data(), [&](uint32_t t, uint32_t s) {
+                                             if (!spend()) return false;
+                                             check_exact(t, s, added);
+                                             return true;
+                                           });
+    if (round == 1) {
+      if (!ws_.reach_ready) fill_reach();
+      refit_triangle_hierarchy(h_, ws_.reach_boxes, ws_.node_boxes.data());
+    }
+    for (uint32_t t : ws_.test_list) {
+      float bt[6];
+      ws_.boxes.get(h_.slot[t], bt);
+      const bool complete = query_triangle_hierarchy(h_, ws_.node_boxes.data(), ws_.reach_boxes, bt, [&](uint32_t s) {
+        // Each pair once: two triangles of this round's list meet when the larger queries.
+        if (s == t || (ws_.tested[s] && s > t)) return true;
+        if (!spend()) return false;
+        float bs[6];
+        ws_.boxes.get(h_.slot[s], bs);
+        if (!share_corner(tri_ + 3 * size_t(t), tri_ + 3 * size_t(s)) && boxes_meet(bt, bs)) check_exact(t, s, added);
+        return true;
+      });
+      if (!complete) return false;
+    }
+    return true;
+  }
+
+  // Halves λ at the flagged moved corners (0 after kGuardHalvings rounds), moves them, and
+  // lists the triangles around them for the next round.
+  void lower(uint32_t round) {
+    for (uint32_t v : ws_.flagged_list) {
+      ws_.flagged[v] = 0;
+      ws_.changed[v] = ws_.moved[v];
+      if (!ws_.moved[v]) continue;
+      if (ws_.factor[v] == 1.0f) ws_.corrected_list.push_back(v);  // capacity for every vertex
+      ws_.factor[v] = round + 1 >= kGuardHalvings ? 0.0f : 0.5f * ws_.factor[v];
+      ws_.positions[v] = blended_position(d_, mesh_, skelform_, lbs_, ws_, v);
+      ws_.moved[v] = ws_.positions[v] != lbs_.positions[rep_[v]];
+    }
+    for (uint32_t v : ws_.flagged_list) {
+      if (!ws_.changed[v]) continue;
+      ws_.changed[v] = 0;
+      for (uint32_t k = mesh_.incident_offsets[v]; k < mesh_.incident_offsets[v + 1]; ++k) {
+        const uint32_t t = mesh_.incident[k];
+        if (ws_.tested[t]) continue;
+        ws_.tested[t] = 1;
+        ws_.test_list.push_back(t);
+        const uint32_t* c = tri_ + 3 * size_t(t);
+        float box[6];
+        triangle_box(ws_.positions[c[0]], ws_.positions[c[1]], ws_.positions[c[2]], box);
+        ws_.boxes.set(h_.slot[t], box);
+      }
+    }
+  }
+
+ private:
+  // One candidate pair from the budget; false when it is spent.
+  bool spend() {
+    if (ws_.visits_left == 0) return false;
+    --ws_.visits_left;
+    return true;
+  }
+
+  // A pair of triangles whose boxes meet now and that share no corner: intersecting at x and
+  // not at L? Then its corners are flagged.
+  void check_exact(uint32_t t, uint32_t s, bool& added) {
+    const uint32_t* ct = tri_ + 3 * size_t(t);
+    const uint32_t* cs = tri_ + 3 * size_t(s);
+    const glm::vec3* x = ws_.positions.data();
+    if (!geometry::triangles_intersect(widen(x[ct[0]]), widen(x[ct[1]]), widen(x[ct[2]]), widen(x[cs[0]]),
+                                       widen(x[cs[1]]), widen(x[cs[2]])))
+      return;
+    const glm::vec3* l = lbs_.positions;
+    if (geometry::triangles_intersect(widen(l[rep_[ct[0]]]), widen(l[rep_[ct[1]]]), widen(l[rep_[ct[2]]]),
+                                      widen(l[rep_[cs[0]]]), widen(l[rep_[cs[1]]]), widen(l[rep_[cs[2]]])))
+      return;  // LBS has this pair too
+    for (uint32_t v : {ct[0], ct[1], ct[2], cs[0], cs[1], cs[2]})
+      if (!ws_.flagged[v]) {
+        ws_.flagged[v] = 1;
+        ws_.flagged_list.push_back(v);  // capacity for every vertex: no allocation
+      }
+    added = true;
+  }
+
+  // From round two on, in this evaluation, the corners only travel towards L (λ only falls):
+  // each triangle's reach is its box at x now and at L.
+  void fill_reach() {
+    ws_.reach_ready = true;
+    const size_t stride = h_.slot_stride();
+    for (uint32_t i = 0; i < mesh_.triangle_count; ++i) {
+      const uint32_t c[3] = {h_.corners[i], h_.corners[stride + i], h_.corners[2 * stride + i]};
+      float box[6], at_l[6];
+      ws_.boxes.get(i, box);
+      triangle_box(lbs_.positions[rep_[c[0]]], lbs_.positions[rep_[c[1]]], lbs_.positions[rep_[c[2]]], at_l);
+      for (int k = 0; k < 3; ++k) {
+        box[k] = std::min(box[k], at_l[k]);
+        box[3 + k] = std::max(box[3 + k], at_l[3 + k]);
+      }
+      ws_.reach_boxes.set(i, box);
+    }
+  }
+
+  const Deformable& d_;
+  const ContactMesh& mesh_;
+  const DenseOutput& skelform_;
+  const DenseOutput& lbs_;
+  GuardWorkspace& ws_;
+  const uint32_t* tri_;
+  const uint32_t* rep_;
+  const TriangleHierarchy& h_;
+};
+
 // The intersection guard from the current factors (ws.factor): halves λ at the moved corners of
 // every pair LBS does not have, until none is left. Round one tests every triangle with a
 // moved corner; each later round only the triangles around the vertices the previous round
-// changed (a pair none of whose corners changed keeps its verdict).
+// changed (a pair none of whose corners changed keeps its verdict). Over the work budget
+// (pair_visit_budget), LBS everywhere: every λ 0 and ws.over_budget.
 //
 // `only` (welded vertices, or null): the positions and boxes of the previous call are known
 // to add no pair, and only the vertices listed have moved since (towards L), so the first
 // round recomputes and tests only the triangles around those.
 void guard_intersections(const Deformable& d, const ContactMesh& mesh, const DenseOutput& skelform,
                          const DenseOutput& lbs, GuardWorkspace& ws, const Array<uint32_t>* only = nullptr) {
-  const uint32_t* tri = mesh.triangles.data();
-  const uint32_t* rep = mesh.representative.data();
-  const TriangleHierarchy& h = mesh.hierarchy;
+  GuardPass pass(d, mesh, skelform, lbs, ws);
   ws.test_list.clear();
   if (only) {
-    for (uint32_t v : *only) {
-      ws.positions[v] = blended_position(d, mesh, skelform, lbs, ws, v);
-      ws.moved[v] = ws.positions[v] != lbs.positions[rep[v]];
-    }
-    for (uint32_t v : *only)
-      for (uint32_t k = mesh.incident_offsets[v]; k < mesh.incident_offsets[v + 1]; ++k) {
-        const uint32_t t = mesh.incident[k];
-        if (ws.tested[t]) continue;
-        const uint32_t* c = tri + 3 * size_t(t);
-        float box[6];
-        triangle_box(ws.positions[c[0]], ws.positions[c[1]], ws.positions[c[2]], box);
-        ws.boxes.set(h.slot[t], box);
-        if (ws.moved[c[0]] || ws.moved[c[1]] || ws.moved[c[2]]) {
-          ws.tested[t] = 1;
-          ws.test_list.push_back(t);
-        }
-      }
-  } else {
-    bool finite = true;
-    for (uint32_t v = 0; v < mesh.vertex_count; ++v) {
-      const glm::vec3 l = lbs.positions[rep[v]];
-      ws.positions[v] = blended_position(d, mesh, skelform, lbs, ws, v);
-      ws.moved[v] = ws.positions[v] != l;
-      finite &= std::isfinite(l.x + l.y + l.z + ws.positions[v].x + ws.positions[v].y + ws.positions[v].z);
-    }
-    if (!finite) {
-      std::fill(ws.factor.begin(), ws.factor.end(), 0.0f);  // a non-finite position: LBS
-      ws.corrected_list.clear();                            // (no ramp: nothing is above 0)
-      return;
-    }
-    // Boxes at x, slot by slot, and the first round's triangles: those with a moved corner.
-    const size_t stride = h.slot_stride();
-    for (uint32_t i = 0; i < mesh.triangle_count; ++i) {
-      const uint32_t t = h.order[i];
-      const uint32_t c[3] = {h.corners[i], h.corners[stride + i], h.corners[2 * stride + i]};  // slot order
-      float box[6];
-      triangle_box(ws.positions[c[0]], ws.positions[c[1]], ws.positions[c[2]], box);
-      ws.boxes.set(i, box);
-      const bool moved = ws.moved[c[0]] || ws.moved[c[1]] || ws.moved[c[2]];
-      ws.tested[t] = moved;
-      if (moved) ws.test_list.push_back(t);
-    }
+    pass.seed_incremental(*only);
+  } else if (!pass.seed_all()) {
+    std::fill(ws.factor.begin(), ws.factor.end(), 0.0f);  // a non-finite position: LBS
+    ws.corrected_list.clear();                            // (no ramp: nothing is above 0)
+    return;
   }
   if (ws.test_list.empty()) return;
-  // Round one on the tight boxes at x; later rounds on the reach (below).
-  refit_triangle_hierarchy(h, ws.boxes, ws.node_boxes.data());
+  refit_triangle_hierarchy(mesh.hierarchy, ws.boxes, ws.node_boxes.data());
   for (uint32_t round = 0; !ws.test_list.empty(); ++round) {
     ws.flagged_list.clear();
     bool added = false;
-    // One candidate pair from the budget; false (and LBS everywhere) when it is spent.
-    auto spend = [&] {
-      if (ws.visits_left == 0) return false;
-      --ws.visits_left;
-      return true;
-    };
-    // A pair of triangles whose boxes meet now and that share no corner: intersecting at x
-    // and not at L?
-    auto check_exact = [&](uint32_t t, uint32_t s) {
-      const uint32_t* ct = tri + 3 * size_t(t);
-      const uint32_t* cs = tri + 3 * size_t(s);
-      if (!geometry::triangles_intersect(widen(ws.positions[ct[0]]), widen(ws.positions[ct[1]]),
-                                         widen(ws.positions[ct[2]]), widen(ws.positions[cs[0]]),
-                                         widen(ws.positions[cs[1]]), widen(ws.positions[cs[2]])))
-        return;
-      const glm::vec3* l = lbs.positions;
-      if (geometry::triangles_intersect(widen(l[rep[ct[0]]]), widen(l[rep[ct[1]]]), widen(l[rep[ct[2]]]),
-                                        widen(l[rep[cs[0]]]), widen(l[rep[cs[1]]]), widen(l[rep[cs[2]]])))
-        return;  // LBS has this pair too
-      for (uint32_t v : {ct[0], ct[1], ct[2], cs[0], cs[1], cs[2]})
-        if (!ws.flagged[v]) {
-          ws.flagged[v] = 1;
-          ws.flagged_list.push_back(v);  // capacity for every vertex: no allocation
-        }
-      added = true;
-    };
-    auto check = [&](uint32_t t, uint32_t s) {
-      float bt[6], bs[6];
-      ws.boxes.get(h.slot[t], bt);
-      ws.boxes.get(h.slot[s], bs);
-      if (share_corner(tri + 3 * size_t(t), tri + 3 * size_t(s)) || !boxes_meet(bt, bs)) return;
-      check_exact(t, s);
-    };
-    bool complete = true;
-    if (round == 0) {
-      // Every pair with a moved triangle: the hierarchy against itself.
-      complete = self_pairs_triangle_hierarchy(h, ws.node_boxes.data(), ws.boxes, ws.tested.data(),
-                                               ws.node_flags.data(), ws.leaf_flags.data(), [&](uint32_t t, uint32_t s) {
-                                                 if (!spend()) return false;
-                                                 check_exact(t, s);
-                                                 return true;
-                                               });
-    } else {
-      if (round == 1 && !ws.reach_ready) {
-        // From here on, in this evaluation, the corners only travel towards L (λ only falls):
-        // each triangle's reach is its box at x now and at L.
-        ws.reach_ready = true;
-        const size_t stride = h.slot_stride();
-        for (uint32_t i = 0; i < mesh.triangle_count; ++i) {
-          const uint32_t c[3] = {h.corners[i], h.corners[stride + i], h.corners[2 * stride + i]};
-          float box[6], at_l[6];
-          ws.boxes.get(i, box);
-          triangle_box(lbs.positions[rep[c[0]]], lbs.positions[rep[c[1]]], lbs.positions[rep[c[2]]], at_l);
-          for (int k = 0; k < 3; ++k) {
-            box[k] = std::min(box[k], at_l[k]);
-            box[3 + k] = std::max(box[3 + k], at_l[3 + k]);
-          }
-          ws.reach_boxes.set(i, box);
-        }
-      }
-      if (round == 1) refit_triangle_hierarchy(h, ws.reach_boxes, ws.node_boxes.data());
-      for (uint32_t t : ws.test_list) {
-        float bt[6];
-        ws.boxes.get(h.slot[t], bt);
-        complete = query_triangle_hierarchy(h, ws.node_boxes.data(), ws.reach_boxes, bt, [&](uint32_t s) {
-          // Each pair once: two triangles of this round's list meet when the larger queries.
-          if (s == t || (ws.tested[s] && s > t)) return true;
-          if (!spend()) return false;
-          check(t, s);
-          return true;
-        });
-        if (!complete) break;
-      }
-    }
+    const bool complete = pass.search(round, added);
     for (uint32_t t : ws.test_list) ws.tested[t] = 0;
     ws.test_list.clear();
     if (!complete) {
@@ -217,31 +286,7 @@ void guard_intersections(const Deformable& d, const ContactMesh& mesh, const Den
     }
     if (!added) return;
     ++ws.rounds;
-    // Halve λ at the flagged moved corners (0 after kGuardHalvings rounds), move them, and
-    // list the triangles around them for the next round.
-    for (uint32_t v : ws.flagged_list) {
-      ws.flagged[v] = 0;
-      ws.changed[v] = ws.moved[v];
-      if (!ws.moved[v]) continue;
-      if (ws.factor[v] == 1.0f) ws.corrected_list.push_back(v);  // capacity for every vertex
-      ws.factor[v] = round + 1 >= kGuardHalvings ? 0.0f : 0.5f * ws.factor[v];
-      ws.positions[v] = blended_position(d, mesh, skelform, lbs, ws, v);
-      ws.moved[v] = ws.positions[v] != lbs.positions[rep[v]];
-    }
-    for (uint32_t v : ws.flagged_list) {
-      if (!ws.changed[v]) continue;
-      ws.changed[v] = 0;
-      for (uint32_t k = mesh.incident_offsets[v]; k < mesh.incident_offsets[v + 1]; ++k) {
-        const uint32_t t = mesh.incident[k];
-        if (ws.tested[t]) continue;
-        ws.tested[t] = 1;
-        ws.test_list.push_back(t);
-        const uint32_t* c = tri + 3 * size_t(t);
-        float box[6];
-        triangle_box(ws.positions[c[0]], ws.positions[c[1]], ws.positions[c[2]], box);
-        ws.boxes.set(h.slot[t], box);
-      }
-    }
+    pass.lower(round);
   }
 }
 
