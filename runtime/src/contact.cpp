@@ -84,80 +84,14 @@ class Grid {
       lo = glm::min(lo, x_[v]);
       hi = glm::max(hi, x_[v]);
     }
-    double extent_sum = 0.0;
-    float* boxes = ws_.boxes.data();
-    for (uint32_t t = 0; t < n; ++t) {
-      glm::vec3 a, b;
-      box(t, a, b);
-      for (int k = 0; k < 3; ++k) {
-        boxes[6 * size_t(t) + k] = a[k];
-        boxes[6 * size_t(t) + 3 + k] = b[k];
-      }
-      const glm::vec3 e = b - a;
-      extent_sum += double(std::max(e.x, std::max(e.y, e.z)));
-      const uint32_t* q = mesh_.triangles.data() + 3 * size_t(t);
-      const glm::vec3 normal = glm::cross(x_[q[1]] - x_[q[0]], x_[q[2]] - x_[q[0]]);
-      const float nl = glm::length(normal);
-      ws_.normals[t] = nl > 0.0f ? normal / nl : glm::vec3(0.0f);
-    }
+    const double extent_sum = store_boxes_and_normals();
     pad_ = pad;
     origin_ = lo - glm::vec3(pad);
     const glm::vec3 extent = hi - lo + glm::vec3(2.0f * pad);
     const float largest = std::max(extent.x, std::max(extent.y, extent.z));
     if (!(largest > 0.0f)) return false;
-    // Cells of the mean triangle size, coarsened until there are at most kCellsPerTriangle
-    // cells per triangle (a surface fills few of them) and kMaxCellsPerAxis per axis.
-    float cell = std::max(float(extent_sum / double(std::max(n, 1u))), largest * 1e-6f);
-    for (int attempt = 0; attempt < 64; ++attempt) {
-      for (int k = 0; k < 3; ++k)
-        dims_[k] = std::max(1, int(std::min(double(kMaxCellsPerAxis), std::ceil(double(extent[k]) / cell))));
-      const double cells = double(dims_[0]) * dims_[1] * dims_[2];
-      if (cells <= double(kCellsPerTriangle) * std::max(n, 1u) && dims_[0] < kMaxCellsPerAxis &&
-          dims_[1] < kMaxCellsPerAxis && dims_[2] < kMaxCellsPerAxis)
-        break;
-      cell *= 1.26f;
-    }
-    if (double(dims_[0]) * dims_[1] * dims_[2] > double(kCellsPerTriangle) * std::max(n, 1u))
-      dims_[0] = dims_[1] = dims_[2] = 1;
-    inverse_cell_ = 1.0f / cell;
-    const size_t cells = size_t(dims_[0]) * dims_[1] * dims_[2];
-    uint32_t* offsets = ws_.cell_offsets.data();
-    std::fill(offsets, offsets + cells + 1, 0u);
-    // Counting sort; a triangle past the reserved entries goes to the oversized list.
-    const uint32_t capacity = uint32_t(ws_.entries.size());
-    uint32_t used = 0;
-    ws_.oversized.clear();
-    int16_t* ranges = ws_.ranges.data();
-    for (uint32_t t = 0; t < n; ++t) {
-      const CellRange r = cell_range(stored_lo(t), stored_hi(t));
-      for (int k = 0; k < 3; ++k) {
-        ranges[6 * size_t(t) + k] = int16_t(r.lo[k]);
-        ranges[6 * size_t(t) + 3 + k] = int16_t(r.hi[k]);
-      }
-      if (used + r.cells() > capacity) {
-        ws_.oversized.push_back(t);  // capacity reserved for every triangle: no allocation
-        continue;
-      }
-      used += r.cells();
-      for (int z = r.lo[2]; z <= r.hi[2]; ++z)
-        for (int y = r.lo[1]; y <= r.hi[1]; ++y)
-          for (int x = r.lo[0]; x <= r.hi[0]; ++x) ++offsets[linear(x, y, z) + 1];
-    }
-    for (size_t c = 0; c < cells; ++c) offsets[c + 1] += offsets[c];
-    // Fill (offsets[c] walks forward; shifted back after).
-    size_t next_oversized = 0;
-    for (uint32_t t = 0; t < n; ++t) {
-      if (next_oversized < ws_.oversized.size() && ws_.oversized[next_oversized] == t) {
-        ++next_oversized;
-        continue;
-      }
-      const CellRange r = range(t);
-      for (int z = r.lo[2]; z <= r.hi[2]; ++z)
-        for (int y = r.lo[1]; y <= r.hi[1]; ++y)
-          for (int x = r.lo[0]; x <= r.hi[0]; ++x) ws_.entries[offsets[linear(x, y, z)]++] = t;
-    }
-    for (size_t c = cells; c > 0; --c) offsets[c] = offsets[c - 1];
-    offsets[0] = 0;
+    choose_cells(extent, largest, float(extent_sum / double(std::max(n, 1u))));
+    bucket_triangles();
     return true;
   }
 
@@ -271,6 +205,90 @@ class Grid {
   }
 
  private:
+  // Every triangle's box and unit normal at the current positions; returns the sum of the
+  // boxes' largest extents.
+  double store_boxes_and_normals() {
+    double extent_sum = 0.0;
+    float* boxes = ws_.boxes.data();
+    for (uint32_t t = 0; t < mesh_.triangle_count; ++t) {
+      glm::vec3 a, b;
+      box(t, a, b);
+      for (int k = 0; k < 3; ++k) {
+        boxes[6 * size_t(t) + k] = a[k];
+        boxes[6 * size_t(t) + 3 + k] = b[k];
+      }
+      const glm::vec3 e = b - a;
+      extent_sum += double(std::max(e.x, std::max(e.y, e.z)));
+      const uint32_t* q = mesh_.triangles.data() + 3 * size_t(t);
+      const glm::vec3 normal = glm::cross(x_[q[1]] - x_[q[0]], x_[q[2]] - x_[q[0]]);
+      const float nl = glm::length(normal);
+      ws_.normals[t] = nl > 0.0f ? normal / nl : glm::vec3(0.0f);
+    }
+    return extent_sum;
+  }
+
+  // Cells of the mean triangle size, coarsened until there are at most kCellsPerTriangle
+  // cells per triangle (a surface fills few of them) and kMaxCellsPerAxis per axis.
+  void choose_cells(const glm::vec3& extent, float largest, float mean_size) {
+    const uint32_t n = mesh_.triangle_count;
+    float cell = std::max(mean_size, largest * 1e-6f);
+    for (int attempt = 0; attempt < 64; ++attempt) {
+      for (int k = 0; k < 3; ++k)
+        dims_[k] = std::max(1, int(std::min(double(kMaxCellsPerAxis), std::ceil(double(extent[k]) / cell))));
+      const double cells = double(dims_[0]) * dims_[1] * dims_[2];
+      if (cells <= double(kCellsPerTriangle) * std::max(n, 1u) && dims_[0] < kMaxCellsPerAxis &&
+          dims_[1] < kMaxCellsPerAxis && dims_[2] < kMaxCellsPerAxis)
+        break;
+      cell *= 1.26f;
+    }
+    if (double(dims_[0]) * dims_[1] * dims_[2] > double(kCellsPerTriangle) * std::max(n, 1u))
+      dims_[0] = dims_[1] = dims_[2] = 1;
+    inverse_cell_ = 1.0f / cell;
+  }
+
+  // Counting sort of the triangles into their cells; a triangle past the reserved entries goes
+  // to the oversized list.
+  void bucket_triangles() {
+    const uint32_t n = mesh_.triangle_count;
+    const size_t cells = size_t(dims_[0]) * dims_[1] * dims_[2];
+    uint32_t* offsets = ws_.cell_offsets.data();
+    std::fill(offsets, offsets + cells + 1, 0u);
+    const uint32_t capacity = uint32_t(ws_.entries.size());
+    uint32_t used = 0;
+    ws_.oversized.clear();
+    int16_t* ranges = ws_.ranges.data();
+    for (uint32_t t = 0; t < n; ++t) {
+      const CellRange r = cell_range(stored_lo(t), stored_hi(t));
+      for (int k = 0; k < 3; ++k) {
+        ranges[6 * size_t(t) + k] = int16_t(r.lo[k]);
+        ranges[6 * size_t(t) + 3 + k] = int16_t(r.hi[k]);
+      }
+      if (used + r.cells() > capacity) {
+        ws_.oversized.push_back(t);  // capacity reserved for every triangle: no allocation
+        continue;
+      }
+      used += r.cells();
+      for (int z = r.lo[2]; z <= r.hi[2]; ++z)
+        for (int y = r.lo[1]; y <= r.hi[1]; ++y)
+          for (int x = r.lo[0]; x <= r.hi[0]; ++x) ++offsets[linear(x, y, z) + 1];
+    }
+    for (size_t c = 0; c < cells; ++c) offsets[c + 1] += offsets[c];
+    // Fill (offsets[c] walks forward; shifted back after).
+    size_t next_oversized = 0;
+    for (uint32_t t = 0; t < n; ++t) {
+      if (next_oversized < ws_.oversized.size() && ws_.oversized[next_oversized] == t) {
+        ++next_oversized;
+        continue;
+      }
+      const CellRange r = range(t);
+      for (int z = r.lo[2]; z <= r.hi[2]; ++z)
+        for (int y = r.lo[1]; y <= r.hi[1]; ++y)
+          for (int x = r.lo[0]; x <= r.hi[0]; ++x) ws_.entries[offsets[linear(x, y, z)]++] = t;
+    }
+    for (size_t c = cells; c > 0; --c) offsets[c] = offsets[c - 1];
+    offsets[0] = 0;
+  }
+
   void add_push(uint32_t v, uint32_t t, glm::vec3& push) const {
     const uint32_t* q = mesh_.triangles.data() + 3 * size_t(t);
     const glm::vec3 n = glm::cross(x_[q[1]] - x_[q[0]], x_[q[2]] - x_[q[0]]);
@@ -353,12 +371,10 @@ class Grid {
   int dims_[3] = {1, 1, 1};
 };
 
-}  // namespace
-
-ContactMesh build_contact_mesh(const glm::vec3* rest_positions, uint32_t vertex_count, const uint32_t* triangles,
-                               size_t triangle_count, const AllocatorRef& allocator) {
-  ContactMesh mesh(allocator);
-  // Weld by exact rest position: sort the vertices by (x, y, z), ties by index.
+// Welds by exact rest position: sort the vertices by (x, y, z), ties by index. Fills
+// mesh.weld, mesh.representative and mesh.vertex_count.
+void weld_vertices(const glm::vec3* rest_positions, uint32_t vertex_count, const AllocatorRef& allocator,
+                   ContactMesh& mesh) {
   Array<uint32_t> order{CallbackAllocator<uint32_t>(allocator)};
   order.resize(vertex_count);
   std::iota(order.begin(), order.end(), 0u);
@@ -391,6 +407,11 @@ ContactMesh build_contact_mesh(const glm::vec3* rest_positions, uint32_t vertex_
     }
     mesh.weld[v] = id[r];
   }
+}
+
+// The welded triangles without a repeated corner, and the triangles around each vertex (CSR).
+void weld_triangles(const uint32_t* triangles, size_t triangle_count, const AllocatorRef& allocator,
+                    ContactMesh& mesh) {
   for (size_t t = 0; t < triangle_count; ++t) {
     const uint32_t a = mesh.weld[triangles[3 * t]], b = mesh.weld[triangles[3 * t + 1]],
                    c = mesh.weld[triangles[3 * t + 2]];
@@ -408,7 +429,11 @@ ContactMesh build_contact_mesh(const glm::vec3* rest_positions, uint32_t vertex_
   fill.assign(mesh.incident_offsets.begin(), mesh.incident_offsets.end() - 1);
   for (uint32_t t = 0; t < mesh.triangle_count; ++t)
     for (int k = 0; k < 3; ++k) mesh.incident[fill[mesh.triangles[3 * size_t(t) + k]]++] = t;
-  // Lengths relative to the mean rest edge: the pass is scale-invariant.
+}
+
+// The pass's lengths, relative to the mean rest edge (the pass is scale-invariant), whether
+// the mesh is closed, and its rest volume.
+void measure_rest(const glm::vec3* rest_positions, const AllocatorRef& allocator, ContactMesh& mesh) {
   double edge_sum = 0.0;
   for (uint32_t t = 0; t < mesh.triangle_count; ++t)
     for (int k = 0; k < 3; ++k)
@@ -440,6 +465,11 @@ ContactMesh build_contact_mesh(const glm::vec3* rest_positions, uint32_t vertex_
     six_volume += glm::dot(a, glm::cross(b, c));
   }
   mesh.rest_volume = six_volume / 6.0;
+}
+
+// The hierarchy over the rest pose and the pairs that intersect as modelled (by the exact
+// test, through the hierarchy, within pair_visit_budget).
+void find_rest_pairs(const glm::vec3* rest_positions, const AllocatorRef& allocator, ContactMesh& mesh) {
   Array<glm::vec3> welded_rest{CallbackAllocator<glm::vec3>(allocator)};
   welded_rest.resize(mesh.vertex_count);
   for (uint32_t v = 0; v < mesh.vertex_count; ++v) welded_rest[v] = rest_positions[mesh.representative[v]];
@@ -484,6 +514,17 @@ ContactMesh build_contact_mesh(const glm::vec3* rest_positions, uint32_t vertex_
     Array<uint64_t>(CallbackAllocator<uint64_t>(allocator)).swap(mesh.rest_pairs);  // its memory too
   }
   std::sort(mesh.rest_pairs.begin(), mesh.rest_pairs.end());
+}
+
+}  // namespace
+
+ContactMesh build_contact_mesh(const glm::vec3* rest_positions, uint32_t vertex_count, const uint32_t* triangles,
+                               size_t triangle_count, const AllocatorRef& allocator) {
+  ContactMesh mesh(allocator);
+  weld_vertices(rest_positions, vertex_count, allocator, mesh);
+  weld_triangles(triangles, triangle_count, allocator, mesh);
+  measure_rest(rest_positions, allocator, mesh);
+  find_rest_pairs(rest_positions, allocator, mesh);
   return mesh;
 }
 
