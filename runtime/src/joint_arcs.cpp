@@ -148,159 +148,113 @@ ArcMap arc_map(const ArcJoint& joint, const ArcPose& pose, float axial) {
   return map;
 }
 
-void build_joint_arcs(const tinygltf::Model& model, Deformable& d) {
-  d.arc_joints.clear();
-  d.arc_vertices.clear();
-  if (d.skin < 0 || d.joint_count == 0 || d.influences == 0) return;
-  const tinygltf::Skin& skin = model.skins[static_cast<size_t>(d.skin)];
-  const size_t joints = skin.joints.size();
-  // Heads at bind: the origins of the inverse bind matrices' inverses (identity if absent).
-  std::vector<glm::dvec3> head(joints, glm::dvec3(0.0));
-  if (skin.inverseBindMatrices >= 0) {
-    const std::vector<glm::dmat4> inverse_bind =
-        gltf::read_mat4(model, skin.inverseBindMatrices, "skin " + std::to_string(d.skin) + " inverseBindMatrices");
-    if (inverse_bind.size() < joints) return;  // the loader's skin checks report it; no arcs
-    for (size_t j = 0; j < joints; ++j) head[j] = glm::dvec3(glm::inverse(inverse_bind[j])[3]);
-  }
-  for (const glm::dvec3& h : head)
-    if (!std::isfinite(h.x + h.y + h.z)) return;
-  // Joint hierarchy within the skin.
-  std::vector<int> joint_of_node(model.nodes.size(), -1), parent_node(model.nodes.size(), -1);
-  for (size_t j = 0; j < joints; ++j)
-    if (skin.joints[j] >= 0 && static_cast<size_t>(skin.joints[j]) < model.nodes.size())
-      joint_of_node[static_cast<size_t>(skin.joints[j])] = static_cast<int>(j);
-  for (size_t n = 0; n < model.nodes.size(); ++n)
-    for (int c : model.nodes[n].children)
-      if (c >= 0 && static_cast<size_t>(c) < model.nodes.size())
-        parent_node[static_cast<size_t>(c)] = static_cast<int>(n);
-  std::vector<int> parent(joints, -1);
-  std::vector<std::vector<int>> children(joints);
-  for (size_t j = 0; j < joints; ++j) {
-    const int node = skin.joints[j];
-    if (node < 0 || static_cast<size_t>(node) >= model.nodes.size()) continue;
-    const int p = parent_node[static_cast<size_t>(node)];
-    if (p >= 0 && joint_of_node[static_cast<size_t>(p)] >= 0) {
-      parent[j] = joint_of_node[static_cast<size_t>(p)];
-      children[static_cast<size_t>(parent[j])].push_back(static_cast<int>(j));
-    }
-  }
-  // Control skin per vertex: weight of a joint, and the heaviest joint.
-  const uint32_t count = d.control_vertex_count, influences = d.influences;
-  auto weight_of = [&](uint32_t v, size_t j) {
-    return skin_weight(d.control_joints.data(), d.control_weights.data(), influences, v, j);
-  };
-  std::vector<int> heaviest(count, -1);
-  for (uint32_t v = 0; v < count; ++v) {
-    float best = 0.0f;
-    for (uint32_t k = 0; k < influences; ++k)
-      if (d.control_weights[size_t(v) * influences + k] > best) {
-        best = d.control_weights[size_t(v) * influences + k];
-        heaviest[v] = d.control_joints[size_t(v) * influences + k];
-      }
-  }
-  // The skeletal vertices a joint moves most: the far ends of root and leaf bones.
-  auto reach = [&](size_t j, const glm::dvec3& from, const glm::dvec3& direction) {
-    double far = 0.0;
-    for (uint32_t v = 0; v < count; ++v)
-      if (heaviest[v] == static_cast<int>(j))
-        far = std::max(far, glm::dot(glm::dvec3(d.skeletal_positions[v]) - from, direction));
-    return far;
-  };
+namespace {
 
+// build_joint_arcs's steps over one deformable: the skin's joint heads and hierarchy, the
+// heaviest joint of each control vertex, the limb joints that qualify for an arc (candidate)
+// and the control vertices each arc moves (assign).
+class ArcBuilder {
+ public:
   struct Candidate {
     ArcJoint joint;
     double lateral;  // limb radius bound: vertices farther from the axis are not the limb's
   };
-  std::vector<Candidate> arcs;
-  for (size_t c = 0; c < joints; ++c) {
-    const int p = parent[c];
-    if (p < 0 || children[c].size() > 1) continue;
-    const glm::dvec3 J = head[c];
-    const double parent_length = glm::length(J - head[static_cast<size_t>(p)]);
-    if (!(parent_length > 0.0)) continue;
-    const glm::dvec3 parent_axis = (J - head[static_cast<size_t>(p)]) / parent_length;
+
+  ArcBuilder(const tinygltf::Model& model, const Deformable& d)
+      : model_(model),
+        d_(d),
+        skin_(model.skins[static_cast<size_t>(d.skin)]),
+        joints_(skin_.joints.size()),
+        count_(d.control_vertex_count),
+        influences_(d.influences) {}
+
+  // Heads at bind: the origins of the inverse bind matrices' inverses (identity if absent).
+  // False when they are missing or not finite (the loader's skin checks report it; no arcs).
+  bool read_heads() {
+    head_.assign(joints_, glm::dvec3(0.0));
+    if (skin_.inverseBindMatrices >= 0) {
+      const std::vector<glm::dmat4> inverse_bind = gltf::read_mat4(
+          model_, skin_.inverseBindMatrices, "skin " + std::to_string(d_.skin) + " inverseBindMatrices");
+      if (inverse_bind.size() < joints_) return false;
+      for (size_t j = 0; j < joints_; ++j) head_[j] = glm::dvec3(glm::inverse(inverse_bind[j])[3]);
+    }
+    for (const glm::dvec3& h : head_)
+      if (!std::isfinite(h.x + h.y + h.z)) return false;
+    return true;
+  }
+
+  // The joint hierarchy within the skin, and each control vertex's heaviest joint.
+  void read_hierarchy() {
+    const size_t nodes = model_.nodes.size();
+    std::vector<int> joint_of_node(nodes, -1), parent_node(nodes, -1);
+    for (size_t j = 0; j < joints_; ++j)
+      if (skin_.joints[j] >= 0 && static_cast<size_t>(skin_.joints[j]) < nodes)
+        joint_of_node[static_cast<size_t>(skin_.joints[j])] = static_cast<int>(j);
+    for (size_t n = 0; n < nodes; ++n)
+      for (int c : model_.nodes[n].children)
+        if (c >= 0 && static_cast<size_t>(c) < nodes) parent_node[static_cast<size_t>(c)] = static_cast<int>(n);
+    parent_.assign(joints_, -1);
+    children_.assign(joints_, {});
+    for (size_t j = 0; j < joints_; ++j) {
+      const int node = skin_.joints[j];
+      if (node < 0 || static_cast<size_t>(node) >= nodes) continue;
+      const int p = parent_node[static_cast<size_t>(node)];
+      if (p >= 0 && joint_of_node[static_cast<size_t>(p)] >= 0) {
+        parent_[j] = joint_of_node[static_cast<size_t>(p)];
+        children_[static_cast<size_t>(parent_[j])].push_back(static_cast<int>(j));
+      }
+    }
+    heaviest_.assign(count_, -1);
+    for (uint32_t v = 0; v < count_; ++v) {
+      float best = 0.0f;
+      for (uint32_t k = 0; k < influences_; ++k)
+        if (d_.control_weights[size_t(v) * influences_ + k] > best) {
+          best = d_.control_weights[size_t(v) * influences_ + k];
+          heaviest_[v] = d_.control_joints[size_t(v) * influences_ + k];
+        }
+    }
+  }
+
+  // Joint c's arc, when c is a limb joint (a parent, at most one child) with room for one.
+  bool candidate(size_t c, Candidate& arc) const {
+    const int p = parent_[c];
+    if (p < 0 || children_[c].size() > 1) return false;
+    const glm::dvec3 J = head_[c];
+    const double parent_length = glm::length(J - head_[static_cast<size_t>(p)]);
+    if (!(parent_length > 0.0)) return false;
+    const glm::dvec3 parent_axis = (J - head_[static_cast<size_t>(p)]) / parent_length;
     glm::dvec3 child_axis;
     double child_cap;
-    if (children[c].size() == 1) {
-      const double length = glm::length(head[static_cast<size_t>(children[c][0])] - J);
-      if (!(length > 0.0)) continue;
-      child_axis = (head[static_cast<size_t>(children[c][0])] - J) / length;
-      child_cap = kSharedBone * length;
-    } else {
-      // A leaf: its axis towards the centroid of the skeletal vertices it moves most.
-      glm::dvec3 sum(0.0);
-      size_t n = 0;
-      for (uint32_t v = 0; v < count; ++v)
-        if (heaviest[v] == static_cast<int>(c)) {
-          sum += glm::dvec3(d.skeletal_positions[v]);
-          ++n;
-        }
-      if (n == 0) continue;
-      const glm::dvec3 to = sum / double(n) - J;
-      const double length = glm::length(to);
-      if (!(length > 0.0)) continue;
-      child_axis = to / length;
-      child_cap = kEndBone * reach(c, J, child_axis);
-    }
-    if (glm::dot(parent_axis, child_axis) < kLongestRestBend) continue;
+    if (!child_bone(c, J, child_axis, child_cap)) return false;
+    if (glm::dot(parent_axis, child_axis) < kLongestRestBend) return false;
     const glm::dvec3 u = glm::normalize(parent_axis + child_axis);
-    const double parent_cap = parent[static_cast<size_t>(p)] >= 0
+    const double parent_cap = parent_[static_cast<size_t>(p)] >= 0
                                   ? kSharedBone * parent_length
                                   : kEndBone * std::max(parent_length, reach(static_cast<size_t>(p), J, -parent_axis));
+    const size_t pj = static_cast<size_t>(p);
     // The limb's radius at the joint: over its blended skeletal vertices, distance from the
     // axis plus medial radius.
     double radius_sum = 0.0;
     size_t blended = 0;
-    for (uint32_t v = 0; v < count; ++v) {
-      const double wp = weight_of(v, static_cast<size_t>(p)), wc = weight_of(v, c);
+    for (uint32_t v = 0; v < count_; ++v) {
+      const double wp = weight_of(v, pj), wc = weight_of(v, c);
       if (wp < kBlendedWeight || wc < kBlendedWeight) continue;
-      const glm::dvec3 x = glm::dvec3(d.skeletal_positions[v]) - J;
-      radius_sum += glm::length(x - glm::dot(x, u) * u) + double(d.medial_radius[v]);
+      const glm::dvec3 x = glm::dvec3(d_.skeletal_positions[v]) - J;
+      radius_sum += glm::length(x - glm::dot(x, u) * u) + double(d_.medial_radius[v]);
       ++blended;
     }
-    if (blended == 0) continue;
+    if (blended == 0) return false;
     const double limb = radius_sum / double(blended);
     // The dense surface around the control mesh: mean distance from the axis of the blended
     // dense vertices over that of the blended control vertices.
-    auto section_radius = [&](const glm::vec3* positions, const uint16_t* joint_index, const float* weight,
-                              uint32_t n) {
-      double sum = 0.0;
-      size_t used = 0;
-      for (uint32_t v = 0; v < n; ++v) {
-        const double wp = skin_weight(joint_index, weight, influences, v, static_cast<size_t>(p));
-        const double wc = skin_weight(joint_index, weight, influences, v, c);
-        if (wp < kBlendedWeight || wc < kBlendedWeight) continue;
-        const glm::dvec3 x = glm::dvec3(positions[v]) - J;
-        sum += glm::length(x - glm::dot(x, u) * u);
-        ++used;
-      }
-      return used ? sum / double(used) : 0.0;
-    };
-    const double control_section =
-        section_radius(d.control_positions.data(), d.control_joints.data(), d.control_weights.data(), count);
-    const double dense_section =
-        section_radius(d.rest_positions.data(), d.dense_joints.data(), d.dense_weights.data(), d.vertex_count);
-    // Where linear blending folds: the inner side at the limb's radius r runs backwards once
-    // r·θ·max dw/dz > 1 (fair_test.cpp, the bent capsule), w the child's share of the pair.
-    // max dw/dz from the axial extent of the vertices with w in (0.02, 0.98): 0.83 of a
-    // smoothstep's width b, whose steepest slope is 1.5 / b. A coarse mesh samples less of
-    // the blend, which only brings the arcs in earlier; a blend no vertex samples (a step
-    // between the bones) folds at once.
-    double z_low = std::numeric_limits<double>::max(), z_high = -z_low;
-    for (uint32_t v = 0; v < count; ++v) {
-      const double wp = weight_of(v, static_cast<size_t>(p)), wc = weight_of(v, c);
-      if (!(wp + wc > 0.0)) continue;
-      const double share = wc / (wp + wc);
-      if (share <= 0.02 || share >= 0.98) continue;
-      const double z = glm::dot(glm::dvec3(d.skeletal_positions[v]) - J, u);
-      z_low = std::min(z_low, z);
-      z_high = std::max(z_high, z);
-    }
-    const double fold_bend = z_high > z_low ? (z_high - z_low) / (1.25 * limb) : 0.0;
+    const double control_section = section_radius(d_.control_positions.data(), d_.control_joints.data(),
+                                                  d_.control_weights.data(), count_, pj, c, J, u);
+    const double dense_section = section_radius(d_.rest_positions.data(), d_.dense_joints.data(),
+                                                d_.dense_weights.data(), d_.vertex_count, pj, c, J, u);
+    const double fold_bend = fold_bend_of(pj, c, J, u, limb);
     const double section = control_section > 0.0 && dense_section > 0.0 ? dense_section / control_section : 1.0;
     const double zone = std::min({double(kArcZone) * limb, parent_cap, child_cap});
-    if (!(limb > 0.0) || zone < limb) continue;  // no room for an arc
-    Candidate arc;
+    if (!(limb > 0.0) || zone < limb) return false;  // no room for an arc
     arc.joint.parent = static_cast<uint16_t>(p);
     arc.joint.child = static_cast<uint16_t>(c);
     arc.joint.center = glm::vec3(J);
@@ -311,36 +265,145 @@ void build_joint_arcs(const tinygltf::Model& model, Deformable& d) {
     arc.joint.fold_bend = float(fold_bend);
     arc.joint.section = float(std::clamp(section, 1.0, 4.0));
     arc.lateral = 2.0 * limb;
-    arcs.push_back(arc);
+    return true;
   }
-  if (arcs.empty()) return;
 
   // Each control vertex takes the arc joint nearest to it (relative to the zone) among those
   // whose pair has part of its skin and whose limb it lies in. Outside the zone only vertices
   // blended between the two joints take it (elsewhere the map is the vertex's rigid bone).
-  std::vector<ArcVertex> parts(count);
-  bool any = false;
-  for (uint32_t v = 0; v < count; ++v) {
-    double best = std::numeric_limits<double>::max();
-    for (size_t a = 0; a < arcs.size(); ++a) {
-      const ArcJoint& joint = arcs[a].joint;
-      const double wp = weight_of(v, joint.parent), wc = weight_of(v, joint.child);
-      if (!(wp + wc > 0.0)) continue;
-      const glm::dvec3 x = glm::dvec3(d.skeletal_positions[v]) - glm::dvec3(joint.center);
-      const double z = glm::dot(x, glm::dvec3(joint.axis));
-      if (glm::length(x - z * glm::dvec3(joint.axis)) > arcs[a].lateral) continue;
-      const double relative = std::fabs(z) / double(joint.zone);
-      if (relative >= 1.0 && !(wp > 0.0 && wc > 0.0)) continue;
-      if (relative >= best) continue;
-      best = relative;
-      parts[v].joint = static_cast<uint32_t>(a);
-      parts[v].axial = float(z);
-      parts[v].share = float(wp + wc);
-      any = true;
+  // False when no vertex takes one.
+  bool assign(const std::vector<Candidate>& arcs, std::vector<ArcVertex>& parts) const {
+    parts.assign(count_, ArcVertex{});
+    bool any = false;
+    for (uint32_t v = 0; v < count_; ++v) {
+      double best = std::numeric_limits<double>::max();
+      for (size_t a = 0; a < arcs.size(); ++a) {
+        const ArcJoint& joint = arcs[a].joint;
+        const double wp = weight_of(v, joint.parent), wc = weight_of(v, joint.child);
+        if (!(wp + wc > 0.0)) continue;
+        const glm::dvec3 x = glm::dvec3(d_.skeletal_positions[v]) - glm::dvec3(joint.center);
+        const double z = glm::dot(x, glm::dvec3(joint.axis));
+        if (glm::length(x - z * glm::dvec3(joint.axis)) > arcs[a].lateral) continue;
+        const double relative = std::fabs(z) / double(joint.zone);
+        if (relative >= 1.0 && !(wp > 0.0 && wc > 0.0)) continue;
+        if (relative >= best) continue;
+        best = relative;
+        parts[v].joint = static_cast<uint32_t>(a);
+        parts[v].axial = float(z);
+        parts[v].share = float(wp + wc);
+        any = true;
+      }
     }
+    return any;
   }
-  if (!any) return;
-  for (const Candidate& arc : arcs) d.arc_joints.push_back(arc.joint);
+
+  size_t joints() const { return joints_; }
+
+ private:
+  double weight_of(uint32_t v, size_t j) const {
+    return skin_weight(d_.control_joints.data(), d_.control_weights.data(), influences_, v, j);
+  }
+
+  // How far the skeletal vertices joint j moves most reach from `from` along `direction`:
+  // the far ends of root and leaf bones.
+  double reach(size_t j, const glm::dvec3& from, const glm::dvec3& direction) const {
+    double far = 0.0;
+    for (uint32_t v = 0; v < count_; ++v)
+      if (heaviest_[v] == static_cast<int>(j))
+        far = std::max(far, glm::dot(glm::dvec3(d_.skeletal_positions[v]) - from, direction));
+    return far;
+  }
+
+  // Joint c's bone beyond the joint at J: its axis and the zone's cap along it. A leaf's axis
+  // points towards the centroid of the skeletal vertices it moves most. False when degenerate.
+  bool child_bone(size_t c, const glm::dvec3& J, glm::dvec3& axis, double& cap) const {
+    if (children_[c].size() == 1) {
+      const double length = glm::length(head_[static_cast<size_t>(children_[c][0])] - J);
+      if (!(length > 0.0)) return false;
+      axis = (head_[static_cast<size_t>(children_[c][0])] - J) / length;
+      cap = kSharedBone * length;
+      return true;
+    }
+    glm::dvec3 sum(0.0);
+    size_t n = 0;
+    for (uint32_t v = 0; v < count_; ++v)
+      if (heaviest_[v] == static_cast<int>(c)) {
+        sum += glm::dvec3(d_.skeletal_positions[v]);
+        ++n;
+      }
+    if (n == 0) return false;
+    const glm::dvec3 to = sum / double(n) - J;
+    const double length = glm::length(to);
+    if (!(length > 0.0)) return false;
+    axis = to / length;
+    cap = kEndBone * reach(c, J, axis);
+    return true;
+  }
+
+  // Mean distance from the axis (J, u) of the vertices blended between joints p and c.
+  double section_radius(const glm::vec3* positions, const uint16_t* joint_index, const float* weight, uint32_t n,
+                        size_t p, size_t c, const glm::dvec3& J, const glm::dvec3& u) const {
+    double sum = 0.0;
+    size_t used = 0;
+    for (uint32_t v = 0; v < n; ++v) {
+      const double wp = skin_weight(joint_index, weight, influences_, v, p);
+      const double wc = skin_weight(joint_index, weight, influences_, v, c);
+      if (wp < kBlendedWeight || wc < kBlendedWeight) continue;
+      const glm::dvec3 x = glm::dvec3(positions[v]) - J;
+      sum += glm::length(x - glm::dot(x, u) * u);
+      ++used;
+    }
+    return used ? sum / double(used) : 0.0;
+  }
+
+  // Where linear blending folds: the inner side at the limb's radius r runs backwards once
+  // r·θ·max dw/dz > 1 (fair_test.cpp, the bent capsule), w the child's share of the pair.
+  // max dw/dz from the axial extent of the vertices with w in (0.02, 0.98): 0.83 of a
+  // smoothstep's width b, whose steepest slope is 1.5 / b. A coarse mesh samples less of the
+  // blend, which only brings the arcs in earlier; a blend no vertex samples (a step between
+  // the bones) folds at once.
+  double fold_bend_of(size_t p, size_t c, const glm::dvec3& J, const glm::dvec3& u, double limb) const {
+    double z_low = std::numeric_limits<double>::max(), z_high = -z_low;
+    for (uint32_t v = 0; v < count_; ++v) {
+      const double wp = weight_of(v, p), wc = weight_of(v, c);
+      if (!(wp + wc > 0.0)) continue;
+      const double share = wc / (wp + wc);
+      if (share <= 0.02 || share >= 0.98) continue;
+      const double z = glm::dot(glm::dvec3(d_.skeletal_positions[v]) - J, u);
+      z_low = std::min(z_low, z);
+      z_high = std::max(z_high, z);
+    }
+    return z_high > z_low ? (z_high - z_low) / (1.25 * limb) : 0.0;
+  }
+
+  const tinygltf::Model& model_;
+  const Deformable& d_;
+  const tinygltf::Skin& skin_;
+  size_t joints_;
+  uint32_t count_, influences_;
+  std::vector<glm::dvec3> head_;
+  std::vector<int> parent_, heaviest_;
+  std::vector<std::vector<int>> children_;
+};
+
+}  // namespace
+
+void build_joint_arcs(const tinygltf::Model& model, Deformable& d) {
+  d.arc_joints.clear();
+  d.arc_vertices.clear();
+  if (d.skin < 0 || d.joint_count == 0 || d.influences == 0) return;
+  ArcBuilder builder(model, d);
+  if (!builder.read_heads()) return;
+  builder.read_hierarchy();
+  std::vector<ArcBuilder::Candidate> arcs;
+  for (size_t c = 0; c < builder.joints(); ++c) {
+    ArcBuilder::Candidate arc;
+    if (builder.candidate(c, arc)) arcs.push_back(arc);
+  }
+  if (arcs.empty()) return;
+  std::vector<ArcVertex> parts;
+  if (!builder.assign(arcs, parts)) return;
+  for (const ArcBuilder::Candidate& arc : arcs) d.arc_joints.push_back(arc.joint);
   d.arc_vertices.assign(parts.begin(), parts.end());
 }
 
