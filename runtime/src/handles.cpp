@@ -179,6 +179,192 @@ void release(Array<T>& a) {
   Array<T>(a.get_allocator()).swap(a);
 }
 
+using SparseMatrix = Eigen::SparseMatrix<double, Eigen::ColMajor, int>;
+
+// The handles' and pinned vertices' roles: duplicated handles share one slot (their
+// displacements are averaged). Rejects an index out of range or a vertex both a handle and
+// pinned.
+void assign_roles(HandleSystem* s, uint32_t n, const uint32_t* handle_control, size_t handle_count,
+                  const uint32_t* pinned_control, size_t pinned_count, const AllocatorRef& alloc) {
+  s->handle_slot.resize(handle_count);
+  Array<uint32_t> slot_multiplicity{CallbackAllocator<uint32_t>(alloc)};
+  Array<uint32_t> slot_vertex{CallbackAllocator<uint32_t>(alloc)};
+  for (size_t i = 0; i < handle_count; ++i) {
+    const uint32_t v = handle_control[i];
+    if (v >= n)
+      invalid("handle " + std::to_string(i) + " names control vertex " + std::to_string(v) + " of " +
+              std::to_string(n));
+    if (s->vertex_role[v] != kHandle) {
+      s->vertex_role[v] = kHandle;
+      s->vertex_ref[v] = uint32_t(slot_vertex.size());
+      slot_vertex.push_back(v);
+      slot_multiplicity.push_back(0);
+    }
+    s->handle_slot[i] = s->vertex_ref[v];
+    ++slot_multiplicity[s->vertex_ref[v]];
+  }
+  s->slot_count = uint32_t(slot_vertex.size());
+  s->slot_weight.resize(s->slot_count);
+  for (uint32_t u = 0; u < s->slot_count; ++u) s->slot_weight[u] = 1.0 / slot_multiplicity[u];
+  for (size_t i = 0; i < pinned_count; ++i) {
+    const uint32_t v = pinned_control[i];
+    if (v >= n)
+      invalid("pinned vertex " + std::to_string(i) + " names control vertex " + std::to_string(v) + " of " +
+              std::to_string(n));
+    if (s->vertex_role[v] == kHandle) invalid("control vertex " + std::to_string(v) + " is both a handle and pinned");
+    s->vertex_role[v] = kStill;
+  }
+}
+
+// Components with no constrained vertex stay at rest (see the file comment): each component is
+// flooded once and its free vertices demoted to kStill if nothing anchors it. Then the free
+// vertices are numbered.
+void settle_unanchored(HandleSystem* s, uint32_t n, const Array<uint32_t>& offsets, const Array<uint32_t>& adjacency,
+                       const AllocatorRef& alloc) {
+  Array<uint32_t> component(n, UINT32_MAX, CallbackAllocator<uint32_t>(alloc));
+  Array<uint32_t> stack{CallbackAllocator<uint32_t>(alloc)};
+  Array<uint32_t> members{CallbackAllocator<uint32_t>(alloc)};
+  for (uint32_t seed = 0; seed < n; ++seed) {
+    if (component[seed] != UINT32_MAX) continue;
+    bool anchored = false;
+    members.clear();
+    stack.assign(1, seed);
+    component[seed] = seed;
+    while (!stack.empty()) {
+      const uint32_t v = stack.back();
+      stack.pop_back();
+      members.push_back(v);
+      anchored = anchored || s->vertex_role[v] != kFree;
+      for (uint32_t k = offsets[v]; k < offsets[v + 1]; ++k) {
+        const uint32_t w = adjacency[k];
+        if (component[w] == UINT32_MAX) {
+          component[w] = seed;
+          stack.push_back(w);
+        }
+      }
+    }
+    if (!anchored)
+      for (uint32_t v : members) s->vertex_role[v] = kStill;
+  }
+  uint32_t free_count = 0;
+  for (uint32_t v = 0; v < n; ++v)
+    if (s->vertex_role[v] == kFree) s->vertex_ref[v] = free_count++;
+  s->free_count = free_count;
+}
+
+// Q = K D⁻¹ K over the whole mesh (Eigen, default heap), split into Q_ff (returned) and the
+// free × handle coupling (s->coupling_*).
+SparseMatrix assemble_system(HandleSystem* s, uint32_t n, const Array<uint32_t>& offsets,
+                             const Array<uint32_t>& adjacency) {
+  const uint32_t free_count = s->free_count;
+  SparseMatrix q_ff(free_count, free_count);
+  std::vector<Eigen::Triplet<double>> entries;
+  entries.reserve(adjacency.size() + n);
+  Eigen::VectorXd inverse_degree = Eigen::VectorXd::Zero(n);
+  for (uint32_t v = 0; v < n; ++v) {
+    const uint32_t degree = offsets[v + 1] - offsets[v];
+    if (degree == 0) continue;  // an unused vertex: alone in its component, kStill
+    entries.emplace_back(int(v), int(v), double(degree));
+    for (uint32_t k = offsets[v]; k < offsets[v + 1]; ++k) entries.emplace_back(int(v), int(adjacency[k]), -1.0);
+    inverse_degree[v] = 1.0 / degree;
+  }
+  SparseMatrix laplacian(n, n);  // K, symmetric
+  laplacian.setFromTriplets(entries.begin(), entries.end());
+  const SparseMatrix scaled = inverse_degree.asDiagonal() * laplacian;
+  const SparseMatrix q = laplacian * scaled;  // symmetric: column j = row j
+
+  entries.clear();
+  s->coupling_offsets.assign(size_t(free_count) + 1, 0);
+  // Column v of q is row v by symmetry, so one pass over the columns of free vertices
+  // gives both the free block and the free × handle coupling, row by row.
+  for (uint32_t v = 0; v < n; ++v) {
+    if (s->vertex_role[v] != kFree) continue;
+    const uint32_t row = s->vertex_ref[v];
+    for (SparseMatrix::InnerIterator it(q, int(v)); it; ++it) {
+      const uint32_t w = uint32_t(it.row());
+      if (it.value() == 0.0) continue;
+      if (s->vertex_role[w] == kFree) {
+        entries.emplace_back(int(row), int(s->vertex_ref[w]), it.value());
+      } else if (s->vertex_role[w] == kHandle) {
+        s->coupling_slot.push_back(s->vertex_ref[w]);
+        s->coupling_weight.push_back(-it.value());
+      }
+    }
+    s->coupling_offsets[row + 1] = uint32_t(s->coupling_slot.size());
+  }
+  q_ff.setFromTriplets(entries.begin(), entries.end());
+  return q_ff;
+}
+
+// The LDLᵀ factor of Q_ff (s->permutation, s->factor_*), when there are free vertices.
+void factorise(HandleSystem* s, const SparseMatrix& q_ff) {
+  const uint32_t free_count = s->free_count;
+  if (free_count == 0) return;
+  Eigen::SimplicialLDLT<SparseMatrix, Eigen::Lower> ldlt(q_ff);
+  if (ldlt.info() != Eigen::Success)
+    throw std::runtime_error("handle set: the bilaplacian system could not be factorised");
+
+  s->permutation.resize(free_count);
+  const auto& p = ldlt.permutationP();
+  for (uint32_t i = 0; i < free_count; ++i) s->permutation[i] = p.size() == 0 ? i : uint32_t(p.indices()[i]);
+
+  const SparseMatrix& l = ldlt.matrixL().nestedExpression();
+  s->factor_offsets.assign(size_t(free_count) + 1, 0);
+  s->factor_rows.reserve(size_t(l.nonZeros()));
+  s->factor_values.reserve(size_t(l.nonZeros()));
+  for (uint32_t j = 0; j < free_count; ++j) {
+    // The unit diagonal is implicit (Eigen's LDLᵀ does not store it); skip it if present.
+    for (SparseMatrix::InnerIterator it(l, int(j)); it; ++it) {
+      if (uint32_t(it.row()) <= j) continue;
+      s->factor_rows.push_back(uint32_t(it.row()));
+      s->factor_values.push_back(it.value());
+    }
+    s->factor_offsets[j + 1] = uint32_t(s->factor_rows.size());
+  }
+  const Eigen::VectorXd& diagonal = ldlt.vectorD();
+  s->factor_diagonal.resize(free_count);
+  for (uint32_t j = 0; j < free_count; ++j) {
+    if (!(diagonal[j] > 0.0))  // positive definite by construction (file comment)
+      throw std::runtime_error("handle set: the bilaplacian system is not positive definite");
+    s->factor_diagonal[j] = diagonal[j];
+  }
+}
+
+// The solve path (the cheaper per frame, unless forced) and its data: the precomputed basis
+// (the factor is then released) or the substitution's work space.
+void prepare_path(HandleSystem* s, HandleSolvePath path, const AllocatorRef& alloc) {
+  const uint32_t free_count = s->free_count;
+  // Per-frame multiply-adds of each path (per coordinate): see the file comment.
+  const size_t substitution_cost = 2 * s->factor_rows.size() + s->coupling_slot.size() + 2 * size_t(free_count);
+  const size_t basis_cost = size_t(free_count) * s->slot_count;
+  if (path == HandleSolvePath::automatic)
+    path = basis_cost < substitution_cost ? HandleSolvePath::basis : HandleSolvePath::substitution;
+  s->path = path;
+  if (path == HandleSolvePath::basis) {
+    s->basis.assign(basis_cost, 0.0);
+    Array<double> field(free_count, 0.0, CallbackAllocator<double>(alloc));
+    for (uint32_t u = 0; u < s->slot_count; ++u) {
+      std::fill(field.begin(), field.end(), 0.0);
+      for (uint32_t f = 0; f < free_count; ++f)
+        for (uint32_t k = s->coupling_offsets[f]; k < s->coupling_offsets[f + 1]; ++k)
+          if (s->coupling_slot[k] == u) field[s->permutation[f]] += s->coupling_weight[k];
+      substitute<1>(*s, field.data());
+      for (uint32_t f = 0; f < free_count; ++f) s->basis[size_t(f) * s->slot_count + u] = field[s->permutation[f]];
+    }
+    release(s->coupling_offsets);
+    release(s->coupling_slot);
+    release(s->coupling_weight);
+    release(s->permutation);
+    release(s->factor_offsets);
+    release(s->factor_rows);
+    release(s->factor_values);
+    release(s->factor_diagonal);
+  } else {
+    s->work.assign(size_t(free_count) * 3, 0.0);
+  }
+  s->slot_displacement.assign(size_t(s->slot_count) * 3, 0.0);
+}
+
 }  // namespace
 
 HandleSystem* handle_system_create(const Deformable& d, const uint32_t* handle_control, size_t handle_count,
@@ -204,176 +390,13 @@ HandleSystem* handle_system_create_with(const Deformable& d, const uint32_t* han
     s->handle_count = handle_count;
     s->vertex_role.assign(n, kFree);
     s->vertex_ref.assign(n, 0);
-
-    // Roles. Duplicated handles share one slot (their displacements are averaged).
-    s->handle_slot.resize(handle_count);
-    Array<uint32_t> slot_multiplicity{CallbackAllocator<uint32_t>(alloc)};
-    Array<uint32_t> slot_vertex{CallbackAllocator<uint32_t>(alloc)};
-    for (size_t i = 0; i < handle_count; ++i) {
-      const uint32_t v = handle_control[i];
-      if (v >= n)
-        invalid("handle " + std::to_string(i) + " names control vertex " + std::to_string(v) + " of " +
-                std::to_string(n));
-      if (s->vertex_role[v] != kHandle) {
-        s->vertex_role[v] = kHandle;
-        s->vertex_ref[v] = uint32_t(slot_vertex.size());
-        slot_vertex.push_back(v);
-        slot_multiplicity.push_back(0);
-      }
-      s->handle_slot[i] = s->vertex_ref[v];
-      ++slot_multiplicity[s->vertex_ref[v]];
-    }
-    s->slot_count = uint32_t(slot_vertex.size());
-    s->slot_weight.resize(s->slot_count);
-    for (uint32_t u = 0; u < s->slot_count; ++u) s->slot_weight[u] = 1.0 / slot_multiplicity[u];
-    for (size_t i = 0; i < pinned_count; ++i) {
-      const uint32_t v = pinned_control[i];
-      if (v >= n)
-        invalid("pinned vertex " + std::to_string(i) + " names control vertex " + std::to_string(v) + " of " +
-                std::to_string(n));
-      if (s->vertex_role[v] == kHandle) invalid("control vertex " + std::to_string(v) + " is both a handle and pinned");
-      s->vertex_role[v] = kStill;
-    }
-
+    assign_roles(s, n, handle_control, handle_count, pinned_control, pinned_count, alloc);
     Array<uint32_t> offsets{CallbackAllocator<uint32_t>(alloc)};
     Array<uint32_t> adjacency{CallbackAllocator<uint32_t>(alloc)};
     build_adjacency(d, offsets, adjacency, alloc);
-
-    // Components with no constrained vertex stay at rest (see the file comment): flood each
-    // component once, then demote its free vertices to kStill if nothing anchors it.
-    {
-      Array<uint32_t> component(n, UINT32_MAX, CallbackAllocator<uint32_t>(alloc));
-      Array<uint32_t> stack{CallbackAllocator<uint32_t>(alloc)};
-      Array<uint32_t> members{CallbackAllocator<uint32_t>(alloc)};
-      for (uint32_t seed = 0; seed < n; ++seed) {
-        if (component[seed] != UINT32_MAX) continue;
-        bool anchored = false;
-        members.clear();
-        stack.assign(1, seed);
-        component[seed] = seed;
-        while (!stack.empty()) {
-          const uint32_t v = stack.back();
-          stack.pop_back();
-          members.push_back(v);
-          anchored = anchored || s->vertex_role[v] != kFree;
-          for (uint32_t k = offsets[v]; k < offsets[v + 1]; ++k) {
-            const uint32_t w = adjacency[k];
-            if (component[w] == UINT32_MAX) {
-              component[w] = seed;
-              stack.push_back(w);
-            }
-          }
-        }
-        if (!anchored)
-          for (uint32_t v : members) s->vertex_role[v] = kStill;
-      }
-    }
-    uint32_t free_count = 0;
-    for (uint32_t v = 0; v < n; ++v)
-      if (s->vertex_role[v] == kFree) s->vertex_ref[v] = free_count++;
-    s->free_count = free_count;
-
-    // Q = K D⁻¹ K over the whole mesh (Eigen, default heap), then split into Q_ff and Q_fh.
-    using SparseMatrix = Eigen::SparseMatrix<double, Eigen::ColMajor, int>;
-    SparseMatrix q_ff(free_count, free_count);
-    {
-      std::vector<Eigen::Triplet<double>> entries;
-      entries.reserve(adjacency.size() + n);
-      Eigen::VectorXd inverse_degree = Eigen::VectorXd::Zero(n);
-      for (uint32_t v = 0; v < n; ++v) {
-        const uint32_t degree = offsets[v + 1] - offsets[v];
-        if (degree == 0) continue;  // an unused vertex: alone in its component, kStill
-        entries.emplace_back(int(v), int(v), double(degree));
-        for (uint32_t k = offsets[v]; k < offsets[v + 1]; ++k) entries.emplace_back(int(v), int(adjacency[k]), -1.0);
-        inverse_degree[v] = 1.0 / degree;
-      }
-      SparseMatrix laplacian(n, n);  // K, symmetric
-      laplacian.setFromTriplets(entries.begin(), entries.end());
-      const SparseMatrix scaled = inverse_degree.asDiagonal() * laplacian;
-      const SparseMatrix q = laplacian * scaled;  // symmetric: column j = row j
-
-      entries.clear();
-      s->coupling_offsets.assign(size_t(free_count) + 1, 0);
-      // Column v of q is row v by symmetry, so one pass over the columns of free vertices
-      // gives both the free block and the free × handle coupling, row by row.
-      for (uint32_t v = 0; v < n; ++v) {
-        if (s->vertex_role[v] != kFree) continue;
-        const uint32_t row = s->vertex_ref[v];
-        for (SparseMatrix::InnerIterator it(q, int(v)); it; ++it) {
-          const uint32_t w = uint32_t(it.row());
-          if (it.value() == 0.0) continue;
-          if (s->vertex_role[w] == kFree) {
-            entries.emplace_back(int(row), int(s->vertex_ref[w]), it.value());
-          } else if (s->vertex_role[w] == kHandle) {
-            s->coupling_slot.push_back(s->vertex_ref[w]);
-            s->coupling_weight.push_back(-it.value());
-          }
-        }
-        s->coupling_offsets[row + 1] = uint32_t(s->coupling_slot.size());
-      }
-      q_ff.setFromTriplets(entries.begin(), entries.end());
-    }
-
-    if (free_count > 0) {
-      Eigen::SimplicialLDLT<SparseMatrix, Eigen::Lower> ldlt(q_ff);
-      if (ldlt.info() != Eigen::Success)
-        throw std::runtime_error("handle set: the bilaplacian system could not be factorised");
-
-      s->permutation.resize(free_count);
-      const auto& p = ldlt.permutationP();
-      for (uint32_t i = 0; i < free_count; ++i) s->permutation[i] = p.size() == 0 ? i : uint32_t(p.indices()[i]);
-
-      const SparseMatrix& l = ldlt.matrixL().nestedExpression();
-      s->factor_offsets.assign(size_t(free_count) + 1, 0);
-      s->factor_rows.reserve(size_t(l.nonZeros()));
-      s->factor_values.reserve(size_t(l.nonZeros()));
-      for (uint32_t j = 0; j < free_count; ++j) {
-        // The unit diagonal is implicit (Eigen's LDLᵀ does not store it); skip it if present.
-        for (SparseMatrix::InnerIterator it(l, int(j)); it; ++it) {
-          if (uint32_t(it.row()) <= j) continue;
-          s->factor_rows.push_back(uint32_t(it.row()));
-          s->factor_values.push_back(it.value());
-        }
-        s->factor_offsets[j + 1] = uint32_t(s->factor_rows.size());
-      }
-      const Eigen::VectorXd& diagonal = ldlt.vectorD();
-      s->factor_diagonal.resize(free_count);
-      for (uint32_t j = 0; j < free_count; ++j) {
-        if (!(diagonal[j] > 0.0))  // positive definite by construction (file comment)
-          throw std::runtime_error("handle set: the bilaplacian system is not positive definite");
-        s->factor_diagonal[j] = diagonal[j];
-      }
-    }
-
-    // Per-frame multiply-adds of each path (per coordinate): see the file comment.
-    const size_t substitution_cost = 2 * s->factor_rows.size() + s->coupling_slot.size() + 2 * size_t(free_count);
-    const size_t basis_cost = size_t(free_count) * s->slot_count;
-    if (path == HandleSolvePath::automatic)
-      path = basis_cost < substitution_cost ? HandleSolvePath::basis : HandleSolvePath::substitution;
-    s->path = path;
-    if (path == HandleSolvePath::basis) {
-      s->basis.assign(basis_cost, 0.0);
-      Array<double> field(free_count, 0.0, CallbackAllocator<double>(alloc));
-      for (uint32_t u = 0; u < s->slot_count; ++u) {
-        std::fill(field.begin(), field.end(), 0.0);
-        for (uint32_t f = 0; f < free_count; ++f)
-          for (uint32_t k = s->coupling_offsets[f]; k < s->coupling_offsets[f + 1]; ++k)
-            if (s->coupling_slot[k] == u) field[s->permutation[f]] += s->coupling_weight[k];
-        substitute<1>(*s, field.data());
-        for (uint32_t f = 0; f < free_count; ++f) s->basis[size_t(f) * s->slot_count + u] = field[s->permutation[f]];
-      }
-      release(s->coupling_offsets);
-      release(s->coupling_slot);
-      release(s->coupling_weight);
-      release(s->permutation);
-      release(s->factor_offsets);
-      release(s->factor_rows);
-      release(s->factor_values);
-      release(s->factor_diagonal);
-    } else {
-      s->work.assign(size_t(free_count) * 3, 0.0);
-    }
-    s->slot_displacement.assign(size_t(s->slot_count) * 3, 0.0);
+    settle_unanchored(s, n, offsets, adjacency, alloc);
+    factorise(s, assemble_system(s, n, offsets, adjacency));
+    prepare_path(s, path, alloc);
     return s;
   } catch (...) {
     destroy_object(alloc, s);
