@@ -222,12 +222,16 @@ const tinygltf::Accessor& checked_accessor(const tinygltf::Model& model, int ind
   return accessor;
 }
 
-// Decodes accessor `index` into count × components doubles, validating everything the
-// header promises.
-std::vector<double> read_components(const tinygltf::Model& model, int index, const AccessorSpec& spec,
-                                    const std::string& what) {
-  const tinygltf::Accessor& accessor = checked_accessor(model, index, what);
-  const std::string where = what + ": accessor " + std::to_string(index);
+// The shape of an accessor's elements.
+struct ElementLayout {
+  size_t components;       // per element
+  size_t component_bytes;  // per component
+  size_t element_bytes;    // components × component_bytes
+  size_t count;            // elements
+};
+
+// The accessor's type, component type and normalisation against `spec`.
+void check_accessor_format(const tinygltf::Accessor& accessor, const AccessorSpec& spec, const std::string& where) {
   const bool type_ok = accessor.type == spec.type;
   const bool component_ok = std::find(spec.component_types.begin(), spec.component_types.end(),
                                       accessor.componentType) != spec.component_types.end();
@@ -244,41 +248,15 @@ std::vector<double> read_components(const tinygltf::Model& model, int index, con
     throw GltfError(GltfError::unsupported, where + " has integer components that are not normalized");
   if (!is_float && spec.integers_must_not_be_normalized && accessor.normalized)
     invalid(where, "integer indices cannot be normalized");
+}
 
-  const size_t components = static_cast<size_t>(tinygltf::GetNumComponentsInType(static_cast<uint32_t>(accessor.type)));
-  const size_t component_bytes = static_cast<size_t>(component_size(accessor.componentType));
-  const size_t element_bytes = components * component_bytes;
-  const size_t count = accessor.count;
-  // Bounded by the data that can actually be addressed, before any multiplication.
-  if (count > std::numeric_limits<uint32_t>::max())
-    throw GltfError(GltfError::unsupported, where + " has " + std::to_string(count) + " elements (more than 2^32-1)");
+// The accessor's stored elements (its bufferView, checked to hold them), or zeros when it has
+// none.
+std::vector<double> read_stored(const tinygltf::Model& model, const tinygltf::Accessor& accessor,
+                                const ElementLayout& layout, const std::string& where) {
+  const size_t count = layout.count, components = layout.components, element_bytes = layout.element_bytes;
   std::vector<double> values;
-  if (accessor.bufferView >= 0) {
-    const ByteRange view = view_bytes(model, accessor.bufferView, where);
-    const tinygltf::BufferView& view_info = model.bufferViews[static_cast<size_t>(accessor.bufferView)];
-    size_t stride = element_bytes;
-    if (view_info.byteStride != 0) {
-      if (view_info.byteStride < element_bytes || view_info.byteStride > 252)
-        invalid(where, "bufferView " + std::to_string(accessor.bufferView) + " has byteStride " +
-                           std::to_string(view_info.byteStride) + " (needs " + std::to_string(element_bytes) +
-                           " to 252 for this accessor)");
-      stride = view_info.byteStride;
-    }
-    const uint64_t last_end = uint64_t{accessor.byteOffset} + uint64_t{count - 1} * stride + element_bytes;
-    if (accessor.byteOffset > view.size || last_end > view.size)
-      invalid(where, "runs past the end of bufferView " + std::to_string(accessor.bufferView) + " (byteOffset " +
-                         std::to_string(accessor.byteOffset) + " + " + std::to_string(count) + " elements of stride " +
-                         std::to_string(stride) + " needs " + std::to_string(last_end) + " bytes, the view has " +
-                         std::to_string(view.size) + ")");
-    // Allocated only now that the data is known to exist, so a lying count cannot exhaust memory.
-    values.assign(count * components, 0.0);
-    for (size_t i = 0; i < count; ++i) {
-      const unsigned char* element = view.data + accessor.byteOffset + i * stride;
-      for (size_t c = 0; c < components; ++c)
-        values[i * components + c] =
-            decode_component(element + c * component_bytes, accessor.componentType, accessor.normalized);
-    }
-  } else {
+  if (accessor.bufferView < 0) {
     // Zeros (plus sparse values): no stored data bounds the count, so cap it at a size no
     // real skinned mesh reaches rather than attempt an absurd allocation.
     constexpr size_t kMaxImplicitElements = size_t{1} << 26;
@@ -286,45 +264,94 @@ std::vector<double> read_components(const tinygltf::Model& model, int index, con
       throw GltfError(GltfError::unsupported, where + " has no bufferView and declares " + std::to_string(count) +
                                                   " elements (more than 2^26)");
     values.assign(count * components, 0.0);
+    return values;
   }
+  const ByteRange view = view_bytes(model, accessor.bufferView, where);
+  const tinygltf::BufferView& view_info = model.bufferViews[static_cast<size_t>(accessor.bufferView)];
+  size_t stride = element_bytes;
+  if (view_info.byteStride != 0) {
+    if (view_info.byteStride < element_bytes || view_info.byteStride > 252)
+      invalid(where, "bufferView " + std::to_string(accessor.bufferView) + " has byteStride " +
+                         std::to_string(view_info.byteStride) + " (needs " + std::to_string(element_bytes) +
+                         " to 252 for this accessor)");
+    stride = view_info.byteStride;
+  }
+  const uint64_t last_end = uint64_t{accessor.byteOffset} + uint64_t{count - 1} * stride + element_bytes;
+  if (accessor.byteOffset > view.size || last_end > view.size)
+    invalid(where, "runs past the end of bufferView " + std::to_string(accessor.bufferView) + " (byteOffset " +
+                       std::to_string(accessor.byteOffset) + " + " + std::to_string(count) + " elements of stride " +
+                       std::to_string(stride) + " needs " + std::to_string(last_end) + " bytes, the view has " +
+                       std::to_string(view.size) + ")");
+  // Allocated only now that the data is known to exist, so a lying count cannot exhaust memory.
+  values.assign(count * components, 0.0);
+  for (size_t i = 0; i < count; ++i) {
+    const unsigned char* element = view.data + accessor.byteOffset + i * stride;
+    for (size_t c = 0; c < components; ++c)
+      values[i * components + c] =
+          decode_component(element + c * layout.component_bytes, accessor.componentType, accessor.normalized);
+  }
+  return values;
+}
 
-  if (accessor.sparse.isSparse) {
-    const auto& sparse = accessor.sparse;
-    const std::string sparse_where = where + " (sparse)";
-    if (sparse.count < 1 || static_cast<size_t>(sparse.count) > count)
-      invalid(sparse_where, "count " + std::to_string(sparse.count) + " is not within 1.." + std::to_string(count));
-    const size_t sparse_count = static_cast<size_t>(sparse.count);
-    const int index_type = sparse.indices.componentType;
-    if (index_type != TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE && index_type != TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT &&
-        index_type != TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT)
-      invalid(sparse_where, std::string("indices are ") + component_name(index_type) +
-                                "; expected UNSIGNED_BYTE/UNSIGNED_SHORT/UNSIGNED_INT");
-    const size_t index_bytes = static_cast<size_t>(component_size(index_type));
-    const ByteRange index_view = view_bytes(model, sparse.indices.bufferView, sparse_where + " indices");
-    const ByteRange value_view = view_bytes(model, sparse.values.bufferView, sparse_where + " values");
-    if (sparse.indices.byteOffset < 0 ||
-        uint64_t(sparse.indices.byteOffset) + uint64_t{sparse_count} * index_bytes > index_view.size)
-      invalid(sparse_where, "indices run past the end of bufferView " + std::to_string(sparse.indices.bufferView));
-    if (sparse.values.byteOffset < 0 ||
-        uint64_t(sparse.values.byteOffset) + uint64_t{sparse_count} * element_bytes > value_view.size)
-      invalid(sparse_where, "values run past the end of bufferView " + std::to_string(sparse.values.bufferView));
-    const unsigned char* indices = index_view.data + sparse.indices.byteOffset;
-    const unsigned char* substitutes = value_view.data + sparse.values.byteOffset;
-    int64_t previous = -1;
-    for (size_t s = 0; s < sparse_count; ++s) {
-      const double target_value = decode_component(indices + s * index_bytes, index_type, false);
-      const int64_t target = static_cast<int64_t>(target_value);
-      if (static_cast<size_t>(target) >= count)
-        invalid(sparse_where, "index " + std::to_string(target) + " at position " + std::to_string(s) +
-                                  " is out of range (accessor count " + std::to_string(count) + ")");
-      if (target <= previous)
-        invalid(sparse_where, "indices are not strictly increasing at position " + std::to_string(s));
-      previous = target;
-      for (size_t c = 0; c < components; ++c)
-        values[static_cast<size_t>(target) * components + c] = decode_component(
-            substitutes + s * element_bytes + c * component_bytes, accessor.componentType, accessor.normalized);
-    }
+// The accessor's sparse substitutions into `values`, indices and values checked.
+void apply_sparse(const tinygltf::Model& model, const tinygltf::Accessor& accessor, const ElementLayout& layout,
+                  const std::string& where, std::vector<double>& values) {
+  const size_t count = layout.count, components = layout.components, element_bytes = layout.element_bytes;
+  const auto& sparse = accessor.sparse;
+  const std::string sparse_where = where + " (sparse)";
+  if (sparse.count < 1 || static_cast<size_t>(sparse.count) > count)
+    invalid(sparse_where, "count " + std::to_string(sparse.count) + " is not within 1.." + std::to_string(count));
+  const size_t sparse_count = static_cast<size_t>(sparse.count);
+  const int index_type = sparse.indices.componentType;
+  if (index_type != TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE && index_type != TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT &&
+      index_type != TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT)
+    invalid(sparse_where, std::string("indices are ") + component_name(index_type) +
+                              "; expected UNSIGNED_BYTE/UNSIGNED_SHORT/UNSIGNED_INT");
+  const size_t index_bytes = static_cast<size_t>(component_size(index_type));
+  const ByteRange index_view = view_bytes(model, sparse.indices.bufferView, sparse_where + " indices");
+  const ByteRange value_view = view_bytes(model, sparse.values.bufferView, sparse_where + " values");
+  if (sparse.indices.byteOffset < 0 ||
+      uint64_t(sparse.indices.byteOffset) + uint64_t{sparse_count} * index_bytes > index_view.size)
+    invalid(sparse_where, "indices run past the end of bufferView " + std::to_string(sparse.indices.bufferView));
+  if (sparse.values.byteOffset < 0 ||
+      uint64_t(sparse.values.byteOffset) + uint64_t{sparse_count} * element_bytes > value_view.size)
+    invalid(sparse_where, "values run past the end of bufferView " + std::to_string(sparse.values.bufferView));
+  const unsigned char* indices = index_view.data + sparse.indices.byteOffset;
+  const unsigned char* substitutes = value_view.data + sparse.values.byteOffset;
+  int64_t previous = -1;
+  for (size_t s = 0; s < sparse_count; ++s) {
+    const double target_value = decode_component(indices + s * index_bytes, index_type, false);
+    const int64_t target = static_cast<int64_t>(target_value);
+    if (static_cast<size_t>(target) >= count)
+      invalid(sparse_where, "index " + std::to_string(target) + " at position " + std::to_string(s) +
+                                " is out of range (accessor count " + std::to_string(count) + ")");
+    if (target <= previous)
+      invalid(sparse_where, "indices are not strictly increasing at position " + std::to_string(s));
+    previous = target;
+    for (size_t c = 0; c < components; ++c)
+      values[static_cast<size_t>(target) * components + c] = decode_component(
+          substitutes + s * element_bytes + c * layout.component_bytes, accessor.componentType, accessor.normalized);
   }
+}
+
+// Decodes accessor `index` into count × components doubles, validating everything the
+// header promises.
+std::vector<double> read_components(const tinygltf::Model& model, int index, const AccessorSpec& spec,
+                                    const std::string& what) {
+  const tinygltf::Accessor& accessor = checked_accessor(model, index, what);
+  const std::string where = what + ": accessor " + std::to_string(index);
+  check_accessor_format(accessor, spec, where);
+  ElementLayout layout;
+  layout.components = static_cast<size_t>(tinygltf::GetNumComponentsInType(static_cast<uint32_t>(accessor.type)));
+  layout.component_bytes = static_cast<size_t>(component_size(accessor.componentType));
+  layout.element_bytes = layout.components * layout.component_bytes;
+  layout.count = accessor.count;
+  // Bounded by the data that can actually be addressed, before any multiplication.
+  if (layout.count > std::numeric_limits<uint32_t>::max())
+    throw GltfError(GltfError::unsupported,
+                    where + " has " + std::to_string(layout.count) + " elements (more than 2^32-1)");
+  std::vector<double> values = read_stored(model, accessor, layout, where);
+  if (accessor.sparse.isSparse) apply_sparse(model, accessor, layout, where, values);
   return values;
 }
 
