@@ -1,0 +1,192 @@
+// Flow (4) of the paper (sec. 3.1), which removes folds and protrusions of the control mesh:
+// ∂M/∂t = −αΔ²M − F − V. F pulls each triangle's centroid onto the envelope of its skeletal
+// triangle's three medial balls (E_T, ball_hull.h), α smooths where the umbrellas agree and V,
+// the bilaplacian across F, restores the shape along the surface.
+#include "ball_hull.h"
+#include "fair_internal.h"
+
+#include <glm/geometric.hpp>
+#include <glm/vec3.hpp>
+
+#include <algorithm>
+#include <cmath>
+#include <cstddef>
+
+#if defined(__SSE2__)
+#  include <emmintrin.h>
+#endif
+
+namespace skelform::runtime::fair_detail {
+namespace {
+
+// Flow (4)'s triangle terms are computed a block of triangles at a time (triangle_forces).
+constexpr uint32_t kHullBlock = 64;
+
+// E_T(C_j)·∇E_T(C_j) − (rest level) for triangles [first, first + count), count ≤ kHullBlock:
+// the interior candidates of the whole block in one pass (interior_lane, four at a time with
+// SSE2), then the hinted boundary candidates four at a time (hinted_lanes4, SSE2), the rest one
+// by one (boundary_distance). Same results as ball_hull_distance per triangle.
+void triangle_forces(const FairingTopology& topo, const glm::vec3* skeletal, const float* radius, const glm::vec3* x,
+                     const float* rest_level, uint32_t first, uint32_t count, FairingWorkspace& ws) {
+  float w0x[kHullBlock], w0y[kHullBlock], w0z[kHullBlock], e1x[kHullBlock], e1y[kHullBlock], e1z[kHullBlock];
+  float e2x[kHullBlock], e2y[kHullBlock], e2z[kHullBlock], r0[kHullBlock], d1[kHullBlock], d2[kHullBlock];
+  float value[kHullBlock], nx[kHullBlock], ny[kHullBlock], nz[kHullBlock];
+  bool inside[kHullBlock];
+  glm::vec3 centroid[kHullBlock];
+  bool usable[kHullBlock];
+  for (uint32_t i = 0; i < count; ++i) {
+    const uint32_t* corner = topo.triangle_indices.data() + 3 * size_t{first + i};
+    centroid[i] = (x[corner[0]] + x[corner[1]] + x[corner[2]]) / 3.0f;
+    const glm::vec3 &s0 = skeletal[corner[0]], &s1 = skeletal[corner[1]], &s2 = skeletal[corner[2]];
+    usable[i] = finite(centroid[i]) && finite(s0) && finite(s1) && finite(s2);
+    // The same differences as ball_hull_distance.
+    const glm::vec3 c0(usable[i] ? s0 : glm::vec3(0.0f)), p(usable[i] ? centroid[i] : glm::vec3(0.0f));
+    const glm::vec3 c1(usable[i] ? s1 : glm::vec3(0.0f)), c2(usable[i] ? s2 : glm::vec3(0.0f));
+    w0x[i] = p.x - c0.x, w0y[i] = p.y - c0.y, w0z[i] = p.z - c0.z;
+    e1x[i] = c1.x - c0.x, e1y[i] = c1.y - c0.y, e1z[i] = c1.z - c0.z;
+    e2x[i] = c2.x - c0.x, e2y[i] = c2.y - c0.y, e2z[i] = c2.z - c0.z;
+    const float rr0 = radius[corner[0]], rr1 = radius[corner[1]], rr2 = radius[corner[2]];
+    r0[i] = rr0, d1[i] = rr1 - rr0, d2[i] = rr2 - rr0;
+  }
+  uint32_t i = 0;
+#if defined(__SSE2__)
+  for (; i + 4 <= count; i += 4)
+    interior_lanes4(w0x + i, w0y + i, w0z + i, e1x + i, e1y + i, e1z + i, e2x + i, e2y + i, e2z + i, r0 + i, d1 + i,
+                    d2 + i, value + i, nx + i, ny + i, nz + i, inside + i);
+#endif
+  for (; i < count; ++i)
+    inside[i] = interior_lane(w0x[i], w0y[i], w0z[i], e1x[i], e1y[i], e1z[i], e2x[i], e2y[i], e2z[i], r0[i], d1[i],
+                              d2[i], value[i], nx[i], ny[i], nz[i]);
+  // E_T's value and gradient per triangle: the interior candidate where it holds; else, with
+  // SSE2, the triangles whose hint names an edge or a vertex try it four at a time
+  // (hinted_lanes4), the rest (and those whose hint fails) go through boundary_distance.
+  const auto store_force = [&](uint32_t i, const HullDistance& e) {
+    const uint32_t t = first + i;
+    const glm::vec3 force = (rest_level ? e.value - rest_level[t] : e.value) * e.gradient;
+    ws.triangle_force[t] = finite(force) ? force : glm::vec3(0.0f);
+  };
+  const auto boundary = [&](uint32_t i) {
+    const uint32_t t = first + i;
+    const uint32_t* corner = topo.triangle_indices.data() + 3 * size_t{t};
+    const glm::vec3 c[3] = {skeletal[corner[0]], skeletal[corner[1]], skeletal[corner[2]]};
+    const float r[3] = {radius[corner[0]], radius[corner[1]], radius[corner[2]]};
+    store_force(i, boundary_distance(centroid[i], c, r, ws.hull_case.data() + t));
+  };
+  uint32_t hinted[kHullBlock];
+  uint32_t hinted_count = 0;
+  for (uint32_t i = 0; i < count; ++i) {
+    const uint32_t t = first + i;
+    if (!usable[i]) {
+      ws.triangle_force[t] = glm::vec3(0.0f);
+      continue;
+    }
+    HullDistance e;
+    if (inside[i] && interior_result(value[i], nx[i], ny[i], nz[i], e)) {
+      ws.hull_case[t] = kHullCaseInterior;
+      store_force(i, e);
+    } else if (kHintedLanes && ws.hull_case[t] >= kHullCaseVertex && ws.hull_case[t] < kHullCaseVertex + 6) {
+      hinted[hinted_count++] = i;
+    } else {
+      boundary(i);
+    }
+  }
+  uint32_t k = 0;
+#if defined(__SSE2__)
+  for (; k + 4 <= hinted_count; k += 4) {
+    HullLanes lanes;
+    for (uint32_t lane = 0; lane < 4; ++lane) {
+      const uint32_t i = hinted[k + lane];
+      const uint32_t* corner = topo.triangle_indices.data() + 3 * size_t{first + i};
+      const int which = ws.hull_case[first + i] - kHullCaseVertex;  // 0..2 a vertex, 3..5 an edge
+      const uint32_t a = corner[which % 3], b = corner[(which + 1) % 3], c = corner[(which + 2) % 3];
+      lanes.set(lane, centroid[i], skeletal[a], skeletal[b], skeletal[c], radius[a], radius[b], radius[c], which >= 3);
+    }
+    HullDistance e[4];
+    const int accepted = hinted_lanes4(lanes, e);
+    for (uint32_t lane = 0; lane < 4; ++lane)
+      if ((accepted >> lane) & 1)
+        store_force(hinted[k + lane], e[lane]);
+      else
+        boundary(hinted[k + lane]);
+  }
+#endif
+  for (; k < hinted_count; ++k) boundary(hinted[k]);
+}
+
+}  // namespace
+
+// One step of flow (4).
+void fold_step(const FairingTopology& topo, const glm::vec3* skeletal, const float* radius, glm::vec3* x, float step,
+               bool semi_implicit, const Targets& targets, FairingWorkspace& ws) {
+  const uint32_t vertex_count = topo.vertex_count;
+  compute_umbrellas(topo, x, targets, ws);
+
+  // E_T(C_j)·∇E_T(C_j) per mesh triangle j against its deformed skeletal triangle T_j.
+  for (uint32_t first = 0; first < topo.triangle_count; first += kHullBlock)
+    triangle_forces(topo, skeletal, radius, x, targets.triangle_level, first,
+                    std::min(kHullBlock, topo.triangle_count - first), ws);
+
+  for (uint32_t v = 0; v < vertex_count; ++v) {
+    ws.displacement[v] = glm::vec3(0.0f);
+    ws.smoothing_weight[v] = 0.0f;
+    ws.force_direction[v] = glm::vec3(0.0f);
+    if (is_fixed(topo, ws, v)) continue;
+    // α: 0.25 unless 30 % or more of the neighbours' umbrella vectors are obtuse to U(p).
+    const uint32_t begin = topo.neighbour_offsets[v], end = topo.neighbour_offsets[v + 1];
+    uint32_t obtuse = 0;
+    for (uint32_t k = begin; k < end; ++k)
+      if (glm::dot(ws.umbrella[topo.neighbours[k]], ws.umbrella[v]) < 0.0f) ++obtuse;
+    // An umbrella below a thousandth of the edge length (relative to rest: the pose has not
+    // changed the surface here) has no meaningful direction: no fold, α as for a smooth spot.
+    const float edge = edge_scale(topo, x, ws, v);
+    const bool negligible = glm::length(ws.umbrella[v]) < 1e-3f * edge;
+    const float alpha = negligible || static_cast<float>(obtuse) < kObtuseFraction * static_cast<float>(end - begin)
+                            ? kAlphaSmooth
+                            : 0.0f;
+
+    // F = (1/n) Σ_j E_{T_j}(C_j) ∇E_{T_j}(C_j) over the incident triangles.
+    const uint32_t tri_begin = topo.incident_offsets[v], tri_end = topo.incident_offsets[v + 1];
+    glm::vec3 force(0.0f);
+    for (uint32_t k = tri_begin; k < tri_end; ++k) force += ws.triangle_force[topo.incident_triangles[k]];
+    if (tri_end > tri_begin) force /= static_cast<float>(tri_end - tri_begin);
+    // F̂, softened: where |F| is below a thousandth of the vertex's edge length its direction is
+    // rounding noise, and a V that turned with it would make a held pose jitter; the
+    // projection fades out there instead (|direction| < 1).
+    const float force_length = glm::length(force);
+    const float soft = 1e-3f * edge;
+    const glm::vec3 direction = force_length > 0.0f ? force / std::max(force_length, soft) : glm::vec3(0.0f);
+
+    // V = Δ²M − (Δ²M·F̂)F̂ (V = Δ²M where F = 0).
+    const glm::vec3& bi = ws.bi_umbrella[v];
+    const glm::vec3 tangential = bi - glm::dot(bi, direction) * direction;
+    ws.smoothing_weight[v] = alpha;
+    ws.force_direction[v] = direction;
+    // (4): ∂M/∂t = −αΔ²M − F − V.
+    // With a smoothing reference (explicit steps), the α term smooths the correction x − M
+    // (rest-shape smoothing there pushes the inner side of tight bends into itself on coarse
+    // meshes), V keeps restoring the rest shape along the surface.
+    const glm::vec3& smooth = targets.reference_bi_umbrella ? ws.bi_reference[v] : bi;
+    // V's weight, relative to rest. V restores the rest shape of the vertex's 2-ring (the
+    // bi-umbrella's support) as seen in its local frame. Where the mesh is coarse for the part
+    // it covers, a medial radius d below kRestShapeRadius mean edge lengths, the 2-ring spans a
+    // good part of a limb's cross-section (RiggedFigure's 130-vertex body everywhere; a dense
+    // character's fingers), articulation bends the 2-ring itself, and the rest shape turned by
+    // one frame is no longer the shape to restore: there V is weighted by d / (kRestShapeRadius
+    // e). A uniformly lower weight would not do: Fig. 11 needs V where the mesh is fine. The
+    // paper's (absolute) V keeps weight 1.
+    const float rest_shape_weight =
+        targets.umbrella ? std::min(1.0f, std::max(radius[v], 0.0f) / (kRestShapeRadius * edge)) : 1.0f;
+    ws.tangential_weight[v] = rest_shape_weight;
+    ws.displacement[v] =
+        semi_implicit ? -step * force : -step * (alpha * smooth + force + rest_shape_weight * tangential);
+  }
+
+  if (!semi_implicit) {
+    apply_displacements(topo, x, ws);  // Jacobi: all from one state
+    return;
+  }
+  for (uint32_t v = 0; v < vertex_count; ++v) ws.start_positions[v] = x[v] + ws.displacement[v];  // x − τF
+  implicit_update(topo, x, step, ws.tangential_weight.data(), targets, ws);
+}
+
+}  // namespace skelform::runtime::fair_detail
