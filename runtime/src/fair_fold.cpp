@@ -22,74 +22,84 @@ namespace {
 // Flow (4)'s triangle terms are computed a block of triangles at a time (triangle_forces).
 constexpr uint32_t kHullBlock = 64;
 
-// E_T(C_j)·∇E_T(C_j) − (rest level) for triangles [first, first + count), count ≤ kHullBlock:
-// the interior candidates of the whole block in one pass (interior_lane, four at a time with
-// SSE2), then the hinted boundary candidates four at a time (hinted_lanes4, SSE2), the rest one
-// by one (boundary_distance). Same results as ball_hull_distance per triangle.
-void triangle_forces(const FairingTopology& topo, const glm::vec3* skeletal, const float* radius, const glm::vec3* x,
-                     const float* rest_level, uint32_t first, uint32_t count, FairingWorkspace& ws) {
+// One block of triangles [first, first + count), count ≤ kHullBlock: E_T's inputs per triangle
+// and its interior candidate, side by side (structure of arrays, as interior_lanes4 reads them).
+struct HullBlock {
   float w0x[kHullBlock], w0y[kHullBlock], w0z[kHullBlock], e1x[kHullBlock], e1y[kHullBlock], e1z[kHullBlock];
   float e2x[kHullBlock], e2y[kHullBlock], e2z[kHullBlock], r0[kHullBlock], d1[kHullBlock], d2[kHullBlock];
   float value[kHullBlock], nx[kHullBlock], ny[kHullBlock], nz[kHullBlock];
   bool inside[kHullBlock];
   glm::vec3 centroid[kHullBlock];
   bool usable[kHullBlock];
+};
+
+// The block's centroids and the differences ball_hull_distance takes (zeros where a centroid or
+// a ball centre is not finite: such a triangle is not usable).
+void gather_block(const FairingTopology& topo, const glm::vec3* skeletal, const float* radius, const glm::vec3* x,
+                  uint32_t first, uint32_t count, HullBlock& b) {
   for (uint32_t i = 0; i < count; ++i) {
     const uint32_t* corner = topo.triangle_indices.data() + 3 * size_t{first + i};
-    centroid[i] = (x[corner[0]] + x[corner[1]] + x[corner[2]]) / 3.0f;
+    b.centroid[i] = (x[corner[0]] + x[corner[1]] + x[corner[2]]) / 3.0f;
     const glm::vec3 &s0 = skeletal[corner[0]], &s1 = skeletal[corner[1]], &s2 = skeletal[corner[2]];
-    usable[i] = finite(centroid[i]) && finite(s0) && finite(s1) && finite(s2);
+    b.usable[i] = finite(b.centroid[i]) && finite(s0) && finite(s1) && finite(s2);
     // The same differences as ball_hull_distance.
-    const glm::vec3 c0(usable[i] ? s0 : glm::vec3(0.0f)), p(usable[i] ? centroid[i] : glm::vec3(0.0f));
-    const glm::vec3 c1(usable[i] ? s1 : glm::vec3(0.0f)), c2(usable[i] ? s2 : glm::vec3(0.0f));
-    w0x[i] = p.x - c0.x, w0y[i] = p.y - c0.y, w0z[i] = p.z - c0.z;
-    e1x[i] = c1.x - c0.x, e1y[i] = c1.y - c0.y, e1z[i] = c1.z - c0.z;
-    e2x[i] = c2.x - c0.x, e2y[i] = c2.y - c0.y, e2z[i] = c2.z - c0.z;
+    const glm::vec3 c0(b.usable[i] ? s0 : glm::vec3(0.0f)), p(b.usable[i] ? b.centroid[i] : glm::vec3(0.0f));
+    const glm::vec3 c1(b.usable[i] ? s1 : glm::vec3(0.0f)), c2(b.usable[i] ? s2 : glm::vec3(0.0f));
+    b.w0x[i] = p.x - c0.x, b.w0y[i] = p.y - c0.y, b.w0z[i] = p.z - c0.z;
+    b.e1x[i] = c1.x - c0.x, b.e1y[i] = c1.y - c0.y, b.e1z[i] = c1.z - c0.z;
+    b.e2x[i] = c2.x - c0.x, b.e2y[i] = c2.y - c0.y, b.e2z[i] = c2.z - c0.z;
     const float rr0 = radius[corner[0]], rr1 = radius[corner[1]], rr2 = radius[corner[2]];
-    r0[i] = rr0, d1[i] = rr1 - rr0, d2[i] = rr2 - rr0;
+    b.r0[i] = rr0, b.d1[i] = rr1 - rr0, b.d2[i] = rr2 - rr0;
   }
+}
+
+// The interior candidates of the whole block in one pass: interior_lane, four at a time with
+// SSE2.
+void interior_candidates(uint32_t count, HullBlock& b) {
   uint32_t i = 0;
 #if defined(__SSE2__)
   for (; i + 4 <= count; i += 4)
-    interior_lanes4(w0x + i, w0y + i, w0z + i, e1x + i, e1y + i, e1z + i, e2x + i, e2y + i, e2z + i, r0 + i, d1 + i,
-                    d2 + i, value + i, nx + i, ny + i, nz + i, inside + i);
+    interior_lanes4(b.w0x + i, b.w0y + i, b.w0z + i, b.e1x + i, b.e1y + i, b.e1z + i, b.e2x + i, b.e2y + i, b.e2z + i,
+                    b.r0 + i, b.d1 + i, b.d2 + i, b.value + i, b.nx + i, b.ny + i, b.nz + i, b.inside + i);
 #endif
   for (; i < count; ++i)
-    inside[i] = interior_lane(w0x[i], w0y[i], w0z[i], e1x[i], e1y[i], e1z[i], e2x[i], e2y[i], e2z[i], r0[i], d1[i],
-                              d2[i], value[i], nx[i], ny[i], nz[i]);
-  // E_T's value and gradient per triangle: the interior candidate where it holds; else, with
-  // SSE2, the triangles whose hint names an edge or a vertex try it four at a time
-  // (hinted_lanes4), the rest (and those whose hint fails) go through boundary_distance.
-  const auto store_force = [&](uint32_t i, const HullDistance& e) {
+    b.inside[i] = interior_lane(b.w0x[i], b.w0y[i], b.w0z[i], b.e1x[i], b.e1y[i], b.e1z[i], b.e2x[i], b.e2y[i],
+                                b.e2z[i], b.r0[i], b.d1[i], b.d2[i], b.value[i], b.nx[i], b.ny[i], b.nz[i]);
+}
+
+// Where a block's triangle forces go: E_T(C_j)·∇E_T(C_j) − (rest level), for triangle
+// first + i of the block.
+struct BlockForces {
+  const FairingTopology& topo;
+  const glm::vec3* skeletal;
+  const float* radius;
+  const float* rest_level;
+  uint32_t first;
+  const HullBlock& block;
+  FairingWorkspace& ws;
+
+  void store(uint32_t i, const HullDistance& e) const {
     const uint32_t t = first + i;
     const glm::vec3 force = (rest_level ? e.value - rest_level[t] : e.value) * e.gradient;
     ws.triangle_force[t] = finite(force) ? force : glm::vec3(0.0f);
-  };
-  const auto boundary = [&](uint32_t i) {
+  }
+  // E_T by the boundary search (boundary_distance, with the triangle's hint).
+  void boundary(uint32_t i) const {
     const uint32_t t = first + i;
     const uint32_t* corner = topo.triangle_indices.data() + 3 * size_t{t};
     const glm::vec3 c[3] = {skeletal[corner[0]], skeletal[corner[1]], skeletal[corner[2]]};
     const float r[3] = {radius[corner[0]], radius[corner[1]], radius[corner[2]]};
-    store_force(i, boundary_distance(centroid[i], c, r, ws.hull_case.data() + t));
-  };
-  uint32_t hinted[kHullBlock];
-  uint32_t hinted_count = 0;
-  for (uint32_t i = 0; i < count; ++i) {
-    const uint32_t t = first + i;
-    if (!usable[i]) {
-      ws.triangle_force[t] = glm::vec3(0.0f);
-      continue;
-    }
-    HullDistance e;
-    if (inside[i] && interior_result(value[i], nx[i], ny[i], nz[i], e)) {
-      ws.hull_case[t] = kHullCaseInterior;
-      store_force(i, e);
-    } else if (kHintedLanes && ws.hull_case[t] >= kHullCaseVertex && ws.hull_case[t] < kHullCaseVertex + 6) {
-      hinted[hinted_count++] = i;
-    } else {
-      boundary(i);
-    }
+    store(i, boundary_distance(block.centroid[i], c, r, ws.hull_case.data() + t));
   }
+};
+
+// The block's triangles `hinted` (indices in the block) whose hint names an edge or a vertex:
+// with SSE2 four at a time (hinted_lanes4), those whose hint fails and the remainder through
+// boundary_distance.
+void hinted_forces(const BlockForces& forces, const uint32_t* hinted, uint32_t hinted_count) {
+  const FairingTopology& topo = forces.topo;
+  const FairingWorkspace& ws = forces.ws;
+  const uint32_t first = forces.first;
   uint32_t k = 0;
 #if defined(__SSE2__)
   for (; k + 4 <= hinted_count; k += 4) {
@@ -99,18 +109,53 @@ void triangle_forces(const FairingTopology& topo, const glm::vec3* skeletal, con
       const uint32_t* corner = topo.triangle_indices.data() + 3 * size_t{first + i};
       const int which = ws.hull_case[first + i] - kHullCaseVertex;  // 0..2 a vertex, 3..5 an edge
       const uint32_t a = corner[which % 3], b = corner[(which + 1) % 3], c = corner[(which + 2) % 3];
-      lanes.set(lane, centroid[i], skeletal[a], skeletal[b], skeletal[c], radius[a], radius[b], radius[c], which >= 3);
+      lanes.set(lane, forces.block.centroid[i], forces.skeletal[a], forces.skeletal[b], forces.skeletal[c],
+                forces.radius[a], forces.radius[b], forces.radius[c], which >= 3);
     }
     HullDistance e[4];
     const int accepted = hinted_lanes4(lanes, e);
     for (uint32_t lane = 0; lane < 4; ++lane)
       if ((accepted >> lane) & 1)
-        store_force(hinted[k + lane], e[lane]);
+        forces.store(hinted[k + lane], e[lane]);
       else
-        boundary(hinted[k + lane]);
+        forces.boundary(hinted[k + lane]);
   }
 #endif
-  for (; k < hinted_count; ++k) boundary(hinted[k]);
+  for (; k < hinted_count; ++k) forces.boundary(hinted[k]);
+}
+
+// E_T(C_j)·∇E_T(C_j) − (rest level) for triangles [first, first + count), count ≤ kHullBlock:
+// the interior candidates of the whole block in one pass, then the hinted boundary candidates
+// four at a time, the rest one by one (boundary_distance). Same results as ball_hull_distance
+// per triangle.
+void triangle_forces(const FairingTopology& topo, const glm::vec3* skeletal, const float* radius, const glm::vec3* x,
+                     const float* rest_level, uint32_t first, uint32_t count, FairingWorkspace& ws) {
+  HullBlock block;
+  gather_block(topo, skeletal, radius, x, first, count, block);
+  interior_candidates(count, block);
+  // E_T's value and gradient per triangle: the interior candidate where it holds; else, with
+  // SSE2, the triangles whose hint names an edge or a vertex try it (hinted_forces), the rest
+  // go through boundary_distance.
+  const BlockForces forces{topo, skeletal, radius, rest_level, first, block, ws};
+  uint32_t hinted[kHullBlock];
+  uint32_t hinted_count = 0;
+  for (uint32_t i = 0; i < count; ++i) {
+    const uint32_t t = first + i;
+    if (!block.usable[i]) {
+      ws.triangle_force[t] = glm::vec3(0.0f);
+      continue;
+    }
+    HullDistance e;
+    if (block.inside[i] && interior_result(block.value[i], block.nx[i], block.ny[i], block.nz[i], e)) {
+      ws.hull_case[t] = kHullCaseInterior;
+      forces.store(i, e);
+    } else if (kHintedLanes && ws.hull_case[t] >= kHullCaseVertex && ws.hull_case[t] < kHullCaseVertex + 6) {
+      hinted[hinted_count++] = i;
+    } else {
+      forces.boundary(i);
+    }
+  }
+  hinted_forces(forces, hinted, hinted_count);
 }
 
 }  // namespace

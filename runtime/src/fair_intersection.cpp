@@ -206,6 +206,123 @@ FieldValue field_at(const Grid& grid, const glm::vec3& x, const FairingWorkspace
   return best;
 }
 
+constexpr uint32_t kNone = std::numeric_limits<uint32_t>::max();
+
+// Tracking (FairingParams::search_stride): f at vertex v as the best of its own ball (not
+// relative to rest), its last minimiser and its neighbours' last minimisers; a minimum that
+// moves along the surface is followed, a new one is found at the vertex's next full search.
+// The smallest (g, s), lexicographically, over the candidates: the order they come in does not
+// matter. The tests that rarely fail branch (build_grid left vertex_cell at none for a skeletal
+// vertex or radius that is not finite); the comparison, which fails or holds at random, selects
+// without a branch.
+FieldValue tracked_field(const FairingTopology& topo, const glm::vec3* skeletal, const float* radius,
+                         const glm::vec3* x, uint32_t v, bool relative, const FairingWorkspace& ws) {
+  FieldValue field;
+  auto consider = [&](uint32_t s) {
+    if (s == kNone || (relative && s == v) || ws.vertex_cell[s] == kNone) return;
+    const glm::vec3 d = x[v] - skeletal[s];
+    const float g = glm::dot(d, d) - radius[s] * radius[s];
+    const bool better = (g < field.f) | ((g == field.f) & (s < field.minimiser));
+    field.f = better ? g : field.f;
+    field.minimiser = better ? s : field.minimiser;
+  };
+  consider(v);
+  consider(ws.minimiser[v]);
+  for (uint32_t k = topo.neighbour_offsets[v]; k < topo.neighbour_offsets[v + 1]; ++k)
+    consider(ws.minimiser[topo.neighbours[k]]);
+  return field;
+}
+
+// f at vertex v and its minimising ball. The grid search once per fair_run() call; later
+// iterations of the call follow the minimising ball found then (the vertices move a fraction
+// of an edge per iteration). Relative to rest, the vertex's own ball is left out.
+FieldValue vertex_field(const FairingTopology& topo, const Grid& grid, const glm::vec3* skeletal, const float* radius,
+                        const glm::vec3* x, uint32_t v, bool refresh_field, bool relative, FairingWorkspace& ws) {
+  FieldValue field;
+  const bool search = refresh_field && (ws.search_stride <= 1 || ws.minimiser[v] == kNone ||
+                                        (ws.search_phase + v) % ws.search_stride == 0);
+  if (search) {
+    field = field_at(grid, x[v], ws, relative ? v : kNone);
+    ws.minimiser[v] = field.minimiser;
+  } else if (refresh_field) {
+    field = tracked_field(topo, skeletal, radius, x, v, relative, ws);
+    ws.next_minimiser[v] = field.minimiser;
+  } else if (ws.minimiser[v] != kNone) {
+    const uint32_t s = ws.minimiser[v];
+    const glm::vec3 d = x[v] - skeletal[s];
+    field = {glm::dot(d, d) - radius[s] * radius[s], s};
+  }
+  return field;
+}
+
+// The paper's −f∇f, ∇f = 2(x − S*), as a Gauss-Newton step towards f = 0, into
+// ws.displacement[v].
+void paper_step(const glm::vec3* skeletal, const float* radius, const glm::vec3* x, uint32_t v, const FieldValue& field,
+                float step, FairingWorkspace& ws) {
+  const glm::vec3 gradient = 2.0f * (x[v] - skeletal[field.minimiser]);
+  const float d_star = radius[field.minimiser];
+  const float denominator = std::max(glm::dot(gradient, gradient), 4.0f * d_star * d_star);
+  if (denominator > 0.0f) ws.displacement[v] = -step * (field.f / denominator) * gradient;
+}
+
+// Relative to rest, flow (5) keeps the vertex on its own side of the radical plane between its
+// own ball (S_v, d_v) and the nearest other ball (S*, d*). The power difference
+// Δ = g(x, S*) − g(x, S_v) = f − g_own (`own` = g_own) is positive on the own side, with
+// ∇Δ = 2(S_v − S*) and Δ / |∇Δ| the distance to the plane. Δ must not fall below the smaller of
+// its rest value (the same two balls, rest M and S) and a margin of kIntersectionMargin times
+// the rest mean edge length e or the medial radius d_v, whichever is smaller (a gap wider than
+// the part is thick would fold a coarse mesh):
+//   - a vertex never sinks deeper into another ball's power cell than it was at rest (where
+//     balls overlap at rest, in a crease or a thin part, that is the rest depth);
+//   - where two parts that were apart at rest come into contact (the inner side of a bent
+//     joint, an arm against the torso), both skins stop a margin short of the plane between
+//     them; without it both settle onto the same plane and touch or cross between their
+//     vertices. The margin costs a little volume; its cap at d_v keeps thin parts of coarse
+//     meshes from folding.
+// The step goes along ∇Δ, towards the own side (pushing out of S*'s ball along ∇f = 2(x − S*)
+// instead lays each skin onto the other's surface, over the other's skin). A vertex on its own
+// side beyond the margin is not pulled in: that is flow (4)'s, and pulling towards the union of
+// all balls shrinks the animated characters. Into ws.displacement[v].
+void radical_plane_step(const FairingTopology& topo, const glm::vec3* skeletal, const float* radius, const glm::vec3* x,
+                        uint32_t v, const FieldValue& field, float own, float step, const Targets& targets,
+                        FairingWorkspace& ws) {
+  const uint32_t other = field.minimiser;
+  const glm::vec3 gradient = 2.0f * (skeletal[v] - skeletal[other]);
+  const glm::vec3 rest_to_other = targets.rest_positions[v] - targets.rest_skeletal[other];
+  const glm::vec3 rest_to_own = targets.rest_positions[v] - targets.rest_skeletal[v];
+  const float rest_difference = (glm::dot(rest_to_other, rest_to_other) - radius[other] * radius[other]) -
+                                (glm::dot(rest_to_own, rest_to_own) - radius[v] * radius[v]);
+  const float edge = edge_scale(topo, x, ws, v);
+  const float margin = kIntersectionMargin * std::min(edge, std::max(radius[v], 0.0f)) * glm::length(gradient);
+  const float h = std::min(field.f - own - std::min(rest_difference, margin), 0.0f);
+  const float denominator = std::max(glm::dot(gradient, gradient), 4.0f * edge * edge);
+  if (denominator > 0.0f) ws.displacement[v] = -step * (h / denominator) * gradient;
+}
+
+// The tracked minimisers of this call (read from the old ones while the step ran) become the
+// current ones.
+void adopt_tracked_minimisers(uint32_t vertex_count, FairingWorkspace& ws) {
+  for (uint32_t v = 0; v < vertex_count; ++v)
+    if (ws.next_minimiser[v] != kNone) {
+      ws.minimiser[v] = ws.next_minimiser[v];
+      ws.next_minimiser[v] = kNone;
+    }
+}
+
+// The explicit step's −WΔ²M, with U² relative to the reference or to rest as compute_umbrellas
+// gives it (the same bits), where W > 0: elsewhere the term is 0. Needs U of x in ws.umbrella.
+void add_explicit_smoothing(const FairingTopology& topo, float step, const Targets& targets, FairingWorkspace& ws) {
+  for (uint32_t v = 0; v < topo.vertex_count; ++v) {
+    if (!(ws.smoothing_weight[v] > 0.0f)) continue;
+    glm::vec3 bi = umbrella_at(topo, ws.umbrella.data(), v);
+    if (targets.reference_bi_umbrella)
+      bi -= targets.reference_bi_umbrella[v];
+    else if (targets.umbrella)
+      bi -= targets.bi_umbrella[v];
+    ws.displacement[v] -= step * ws.smoothing_weight[v] * bi;
+  }
+}
+
 }  // namespace
 
 // One step of flow (5).
@@ -219,93 +336,25 @@ void intersection_step(const FairingTopology& topo, const Grid& grid, const glm:
 
   // f, its Gauss-Newton step G = f∇f / max(|∇f|², 4 d*²) with ∇f = 2(x − S*), and |f − g|.
   // Relative to rest, f is the minimum over the balls other than the vertex's own (the ball it
-  // was reconstructed from): the margin below needs the nearest other ball also where the own
-  // ball is nearer.
+  // was reconstructed from): the margin needs the nearest other ball also where the own ball
+  // is nearer.
   const bool relative = targets.rest_positions && targets.rest_skeletal;
-  constexpr uint32_t none = std::numeric_limits<uint32_t>::max();
   float largest_gap = 0.0f;
   for (uint32_t v = 0; v < vertex_count; ++v) {
     ws.displacement[v] = glm::vec3(0.0f);
     ws.smoothing_weight[v] = 0.0f;
     ws.force_direction[v] = glm::vec3(0.0f);
     if (is_fixed(topo, ws, v) || !finite(x[v])) continue;
-    // The grid search once per fair_run() call; later iterations of the call follow the
-    // minimising ball found then (the vertices move a fraction of an edge per iteration).
-    FieldValue field;
-    const bool search = refresh_field && (ws.search_stride <= 1 || ws.minimiser[v] == none ||
-                                          (ws.search_phase + v) % ws.search_stride == 0);
-    if (search) {
-      field = field_at(grid, x[v], ws, relative ? v : none);
-      ws.minimiser[v] = field.minimiser;
-    } else if (refresh_field) {
-      // Tracking (FairingParams::search_stride): the best of the vertex's own ball (not
-      // relative to rest), its last minimiser and its neighbours' last minimisers; a minimum
-      // that moves along the surface is followed, a new one is found at the vertex's next full
-      // search.
-      // The smallest (g, s), lexicographically, over the candidates: the order they come in does
-      // not matter. The tests that rarely fail branch (build_grid left vertex_cell at none for
-      // a skeletal vertex or radius that is not finite); the comparison, which fails or holds
-      // at random, selects without a branch.
-      auto consider = [&](uint32_t s) {
-        if (s == none || (relative && s == v) || ws.vertex_cell[s] == none) return;
-        const glm::vec3 d = x[v] - skeletal[s];
-        const float g = glm::dot(d, d) - radius[s] * radius[s];
-        const bool better = (g < field.f) | ((g == field.f) & (s < field.minimiser));
-        field.f = better ? g : field.f;
-        field.minimiser = better ? s : field.minimiser;
-      };
-      consider(v);
-      consider(ws.minimiser[v]);
-      for (uint32_t k = topo.neighbour_offsets[v]; k < topo.neighbour_offsets[v + 1]; ++k)
-        consider(ws.minimiser[topo.neighbours[k]]);
-      ws.next_minimiser[v] = field.minimiser;
-    } else if (ws.minimiser[v] != none) {
-      const uint32_t s = ws.minimiser[v];
-      const glm::vec3 d = x[v] - skeletal[s];
-      field = {glm::dot(d, d) - radius[s] * radius[s], s};
-    }
-    if (field.minimiser == none) continue;
+    const FieldValue field = vertex_field(topo, grid, skeletal, radius, x, v, refresh_field, relative, ws);
+    if (field.minimiser == kNone) continue;
     // g(x, S_v) of the vertex's own ball, where another ball is the minimiser (0 is unused).
     const bool foreign = field.minimiser != v && finite(skeletal[v]);
     const glm::vec3 to_own = x[v] - skeletal[v];
     const float own = foreign ? glm::dot(to_own, to_own) - radius[v] * radius[v] : 0.0f;
-    if (!relative) {
-      // The paper's −f∇f, ∇f = 2(x − S*), as a Gauss-Newton step towards f = 0.
-      const glm::vec3 gradient = 2.0f * (x[v] - skeletal[field.minimiser]);
-      const float d_star = radius[field.minimiser];
-      const float denominator = std::max(glm::dot(gradient, gradient), 4.0f * d_star * d_star);
-      if (denominator > 0.0f) ws.displacement[v] = -step * (field.f / denominator) * gradient;
-    } else if (foreign) {
-      // Relative to rest, flow (5) keeps the vertex on its own side of the radical plane
-      // between its own ball (S_v, d_v) and the nearest other ball (S*, d*). The power
-      // difference Δ = g(x, S*) − g(x, S_v) = f − g_own is positive on the own side, with
-      // ∇Δ = 2(S_v − S*) and Δ / |∇Δ| the distance to the plane. Δ must not fall below the
-      // smaller of its rest value (the same two balls, rest M and S) and a margin of
-      // kIntersectionMargin times the rest mean edge length e or the medial radius d_v,
-      // whichever is smaller (a gap wider than the part is thick would fold a coarse mesh):
-      //   - a vertex never sinks deeper into another ball's power cell than it was at rest
-      //     (where balls overlap at rest, in a crease or a thin part, that is the rest depth);
-      //   - where two parts that were apart at rest come into contact (the inner side of a
-      //     bent joint, an arm against the torso), both skins stop a margin short of the plane
-      //     between them; without it both settle onto the same plane and touch or cross
-      //     between their vertices. The margin costs a little volume; its cap at d_v keeps thin
-      //     parts of coarse meshes from folding.
-      // The step goes along ∇Δ, towards the own side (pushing out of S*'s ball along
-      // ∇f = 2(x − S*) instead lays each skin onto the other's surface, over the other's skin).
-      // A vertex on its own side beyond the margin is not pulled in: that is flow (4)'s, and
-      // pulling towards the union of all balls shrinks the animated characters.
-      const uint32_t other = field.minimiser;
-      const glm::vec3 gradient = 2.0f * (skeletal[v] - skeletal[other]);
-      const glm::vec3 rest_to_other = targets.rest_positions[v] - targets.rest_skeletal[other];
-      const glm::vec3 rest_to_own = targets.rest_positions[v] - targets.rest_skeletal[v];
-      const float rest_difference = (glm::dot(rest_to_other, rest_to_other) - radius[other] * radius[other]) -
-                                    (glm::dot(rest_to_own, rest_to_own) - radius[v] * radius[v]);
-      const float edge = edge_scale(topo, x, ws, v);
-      const float margin = kIntersectionMargin * std::min(edge, std::max(radius[v], 0.0f)) * glm::length(gradient);
-      const float h = std::min(field.f - own - std::min(rest_difference, margin), 0.0f);
-      const float denominator = std::max(glm::dot(gradient, gradient), 4.0f * edge * edge);
-      if (denominator > 0.0f) ws.displacement[v] = -step * (h / denominator) * gradient;
-    }
+    if (!relative)
+      paper_step(skeletal, radius, x, v, field, step, ws);
+    else if (foreign)
+      radical_plane_step(topo, skeletal, radius, x, v, field, own, step, targets, ws);
     // W's numerator: how deep the vertex lies in another ball's power cell, |f(M) − g(M, S)|
     // where another ball is the minimiser (0 where its own ball is); relative to rest, beyond
     // its rest depth.
@@ -316,28 +365,14 @@ void intersection_step(const FairingTopology& topo, const Grid& grid, const glm:
       largest_gap = std::max(largest_gap, ws.smoothing_weight[v]);
     }
   }
-  if (refresh_field && ws.search_stride > 1)  // tracked minimisers, read from the old ones above
-    for (uint32_t v = 0; v < vertex_count; ++v)
-      if (ws.next_minimiser[v] != std::numeric_limits<uint32_t>::max()) {
-        ws.minimiser[v] = ws.next_minimiser[v];
-        ws.next_minimiser[v] = std::numeric_limits<uint32_t>::max();
-      }
+  if (refresh_field && ws.search_stride > 1) adopt_tracked_minimisers(vertex_count, ws);
   // W(M) = |f(M) − g(M, S)| / max_M |f − g|.
   for (uint32_t v = 0; v < vertex_count; ++v)
     ws.smoothing_weight[v] = largest_gap > 0.0f ? ws.smoothing_weight[v] / largest_gap : 0.0f;
 
   if (!semi_implicit) {
-    // (5): ∂M/∂t = −f∇f − WΔ²M, with U² relative to the reference or to rest as compute_umbrellas
-    // gives it (the same bits), where W > 0: elsewhere the term is 0.
-    for (uint32_t v = 0; v < vertex_count; ++v) {
-      if (!(ws.smoothing_weight[v] > 0.0f)) continue;
-      glm::vec3 bi = umbrella_at(topo, ws.umbrella.data(), v);
-      if (targets.reference_bi_umbrella)
-        bi -= targets.reference_bi_umbrella[v];
-      else if (targets.umbrella)
-        bi -= targets.bi_umbrella[v];
-      ws.displacement[v] -= step * ws.smoothing_weight[v] * bi;
-    }
+    // (5): ∂M/∂t = −f∇f − WΔ²M.
+    add_explicit_smoothing(topo, step, targets, ws);
     apply_displacements(topo, x, ws);
     return;
   }
