@@ -29,7 +29,7 @@ namespace skelform::runtime::fair_detail {
 // stationary point is the minimum.
 //
 // Written once, without branches (guards are selects): the scalar E_T and the block-wise one
-// in fold_step evaluate this same function, so both give the same bits, and in a block the
+// in triangle_forces evaluate this same function, so both give the same bits, and in a block the
 // independent triangles overlap their divisions and square roots. With SSE2 the block runs it
 // four triangles at a time (interior_lanes4 below: the same operations per lane, so the same
 // bits). Inputs: P − c_0 (w0), e_1, e_2, r_0, δ_1, δ_2. Returns whether the stationary point

@@ -17,14 +17,11 @@
 
 namespace skelform::runtime {
 
-FairingTopology build_fairing_topology(const uint32_t* triangle_indices, size_t triangle_count, size_t vertex_count,
-                                       const AllocatorRef& allocator) {
-  FairingTopology topo(allocator);
-  topo.vertex_count = static_cast<uint32_t>(vertex_count);
-  topo.triangle_count = static_cast<uint32_t>(triangle_count);
-  topo.triangle_indices.assign(triangle_indices, triangle_indices + 3 * triangle_count);
+namespace {
 
-  // Vertex → triangles (every triangle, degenerate too: F averages over what is incident).
+// Vertex → triangles (every triangle, degenerate too: F averages over what is incident).
+void add_incidence(FairingTopology& topo, const uint32_t* triangle_indices, size_t triangle_count, size_t vertex_count,
+                   const AllocatorRef& allocator) {
   topo.incident_offsets.assign(vertex_count + 1, 0);
   for (size_t i = 0; i < 3 * triangle_count; ++i) ++topo.incident_offsets[triangle_indices[i] + 1];
   for (size_t v = 0; v < vertex_count; ++v) topo.incident_offsets[v + 1] += topo.incident_offsets[v];
@@ -35,9 +32,13 @@ FairingTopology build_fairing_topology(const uint32_t* triangle_indices, size_t 
     for (size_t t = 0; t < triangle_count; ++t)
       for (int k = 0; k < 3; ++k) topo.incident_triangles[fill[triangle_indices[3 * t + k]]++] = uint32_t(t);
   }
+}
 
-  // Directed half-edges (v → w, per triangle corner), sorted per vertex: duplicates are the
-  // one-ring; an undirected edge seen once (v→w or w→v in one triangle only) is a border.
+// The one-rings (ascending, each neighbour once) and the border flags. Directed half-edges
+// (v → w, per triangle corner), sorted per vertex: duplicates are the one-ring; an undirected
+// edge seen once (v→w or w→v in one triangle only) is a border.
+void add_one_rings(FairingTopology& topo, const uint32_t* triangle_indices, size_t triangle_count, size_t vertex_count,
+                   const AllocatorRef& allocator) {
   Array<uint32_t> half_offsets(vertex_count + 1, 0, CallbackAllocator<uint32_t>(allocator));
   for (size_t t = 0; t < triangle_count; ++t) {
     const uint32_t* tri = triangle_indices + 3 * t;
@@ -76,8 +77,10 @@ FairingTopology build_fairing_topology(const uint32_t* triangle_indices, size_t 
     topo.neighbour_offsets[v + 1] = static_cast<uint32_t>(topo.neighbours.size());
     if (begin == end) topo.fixed[v] = 1;  // isolated
   }
+}
 
-  // ν_v = 1 + (1/n_v) Σ_j 1/n_j, the diagonal of U².
+// ν_v = 1 + (1/n_v) Σ_j 1/n_j, the diagonal of U².
+void add_bi_umbrella_diagonal(FairingTopology& topo, size_t vertex_count) {
   topo.bi_umbrella_diagonal.assign(vertex_count, 0.0f);
   for (size_t v = 0; v < vertex_count; ++v) {
     const uint32_t begin = topo.neighbour_offsets[v], end = topo.neighbour_offsets[v + 1];
@@ -89,6 +92,19 @@ FairingTopology build_fairing_topology(const uint32_t* triangle_indices, size_t 
     }
     topo.bi_umbrella_diagonal[v] = 1.0f + inverse_degree_sum / static_cast<float>(end - begin);
   }
+}
+
+}  // namespace
+
+FairingTopology build_fairing_topology(const uint32_t* triangle_indices, size_t triangle_count, size_t vertex_count,
+                                       const AllocatorRef& allocator) {
+  FairingTopology topo(allocator);
+  topo.vertex_count = static_cast<uint32_t>(vertex_count);
+  topo.triangle_count = static_cast<uint32_t>(triangle_count);
+  topo.triangle_indices.assign(triangle_indices, triangle_indices + 3 * triangle_count);
+  add_incidence(topo, triangle_indices, triangle_count, vertex_count, allocator);
+  add_one_rings(topo, triangle_indices, triangle_count, vertex_count, allocator);
+  add_bi_umbrella_diagonal(topo, vertex_count);
   return topo;
 }
 
@@ -127,6 +143,57 @@ FairingWorkspace make_fairing_workspace(const FairingTopology& topology, uint32_
   return ws;
 }
 
+namespace {
+
+// The bounding-box diagonal of the finite positions (0 if there are none).
+float bounding_diagonal(const glm::vec3* positions, size_t vertex_count) {
+  glm::vec3 lo(std::numeric_limits<float>::max()), hi(-std::numeric_limits<float>::max());
+  for (size_t v = 0; v < vertex_count; ++v)
+    if (fair_detail::finite(positions[v])) lo = glm::min(lo, positions[v]), hi = glm::max(hi, positions[v]);
+  return lo.x <= hi.x ? glm::length(hi - lo) : 0.0f;
+}
+
+// The run's targets relative to rest: the rest umbrellas turned into this evaluation's frames
+// and, with a smoothing reference, its U².
+fair_detail::Targets rest_targets(const FairingTopology& topology, const FairingParams& params, const FairingRest& rest,
+                                  const glm::mat3* frames, size_t vertex_count, FairingWorkspace& workspace) {
+  using fair_detail::umbrella_pass;
+  if (params.smoothing_reference) {
+    // U² of the reference surface (the unfaired reconstruction M): smoothing against it
+    // smooths the correction x − M itself.
+    const glm::vec3* reference_umbrella = params.smoothing_reference_umbrella;
+    if (!reference_umbrella) {
+      umbrella_pass(topology, params.smoothing_reference, workspace.target_umbrella.data());
+      reference_umbrella = workspace.target_umbrella.data();
+    }
+    umbrella_pass(topology, reference_umbrella, workspace.reference_bi.data());
+  }
+  for (size_t v = 0; v < vertex_count; ++v) {
+    workspace.target_umbrella[v] = frames[v] * rest.umbrella[v];
+    workspace.target_bi_umbrella[v] = frames[v] * rest.bi_umbrella[v];
+  }
+  return {workspace.target_umbrella.data(),
+          workspace.target_bi_umbrella.data(),
+          rest.triangle_level.data(),
+          rest.gap.data(),
+          params.smoothing_reference ? workspace.reference_bi.data() : nullptr,
+          rest.positions.size() == vertex_count ? rest.positions.data() : nullptr,
+          rest.skeletal.size() == vertex_count ? rest.skeletal.data() : nullptr};
+}
+
+// The largest squared motion from `start` (non-finite ones ignored): one square root at the end.
+float largest_squared_motion(const glm::vec3* positions, const glm::vec3* start, size_t vertex_count) {
+  float moved = 0.0f;
+  for (size_t v = 0; v < vertex_count; ++v) {
+    const glm::vec3 d = positions[v] - start[v];
+    const float squared = glm::dot(d, d);
+    if (std::isfinite(squared)) moved = std::max(moved, squared);
+  }
+  return moved;
+}
+
+}  // namespace
+
 float fair_run(const FairingTopology& topology, const glm::vec3* skeletal, const float* radius, glm::vec3* positions,
                size_t vertex_count, const FairingParams& params, FairingWorkspace& workspace, const FairingRest* rest,
                const glm::mat3* frames) {
@@ -142,10 +209,7 @@ float fair_run(const FairingTopology& topology, const glm::vec3* skeletal, const
                          : (params.semi_implicit ? kDefaultFoldStepSemiImplicit : kDefaultFoldStepExplicit);
   const float intersect = params.intersection_step > 0.0f ? params.intersection_step : kDefaultIntersectionStep;
 
-  glm::vec3 lo(std::numeric_limits<float>::max()), hi(-std::numeric_limits<float>::max());
-  for (size_t v = 0; v < vertex_count; ++v)
-    if (finite(positions[v])) lo = glm::min(lo, positions[v]), hi = glm::max(hi, positions[v]);
-  const float diagonal = lo.x <= hi.x ? glm::length(hi - lo) : 0.0f;
+  const float diagonal = bounding_diagonal(positions, vertex_count);
 
   workspace.caller_fixed = params.fixed;
   workspace.rest_edge = rest && rest->mean_edge.size() == vertex_count ? rest->mean_edge.data() : nullptr;
@@ -154,27 +218,7 @@ float fair_run(const FairingTopology& topology, const glm::vec3* skeletal, const
   Targets targets;
   if (rest && frames) {
     if (rest->umbrella.size() != vertex_count || rest->triangle_level.size() != topology.triangle_count) return -1.0f;
-    if (params.smoothing_reference) {
-      // U² of the reference surface (the unfaired reconstruction M): smoothing against it
-      // smooths the correction x − M itself.
-      const glm::vec3* reference_umbrella = params.smoothing_reference_umbrella;
-      if (!reference_umbrella) {
-        umbrella_pass(topology, params.smoothing_reference, workspace.target_umbrella.data());
-        reference_umbrella = workspace.target_umbrella.data();
-      }
-      umbrella_pass(topology, reference_umbrella, workspace.reference_bi.data());
-    }
-    for (size_t v = 0; v < vertex_count; ++v) {
-      workspace.target_umbrella[v] = frames[v] * rest->umbrella[v];
-      workspace.target_bi_umbrella[v] = frames[v] * rest->bi_umbrella[v];
-    }
-    targets = {workspace.target_umbrella.data(),
-               workspace.target_bi_umbrella.data(),
-               rest->triangle_level.data(),
-               rest->gap.data(),
-               params.smoothing_reference ? workspace.reference_bi.data() : nullptr,
-               rest->positions.size() == vertex_count ? rest->positions.data() : nullptr,
-               rest->skeletal.size() == vertex_count ? rest->skeletal.data() : nullptr};
+    targets = rest_targets(topology, params, *rest, frames, vertex_count, workspace);
   }
 
   Grid grid;
@@ -189,12 +233,7 @@ float fair_run(const FairingTopology& topology, const glm::vec3* skeletal, const
     if (params.intersection_flow)
       intersection_step(topology, grid, skeletal, radius, positions, intersect, params.semi_implicit, iteration == 0,
                         targets, workspace);
-    float moved = 0.0f;  // largest squared motion: one square root at the end
-    for (size_t v = 0; v < vertex_count; ++v) {
-      const glm::vec3 d = positions[v] - workspace.iteration_start[v];
-      const float squared = glm::dot(d, d);
-      if (std::isfinite(squared)) moved = std::max(moved, squared);
-    }
+    const float moved = largest_squared_motion(positions, workspace.iteration_start.data(), vertex_count);
     residual = diagonal > 0.0f ? std::sqrt(moved) / diagonal : 0.0f;
   }
   return residual;

@@ -71,7 +71,7 @@ struct FairingParams {
   bool fold_flow = true;          // run flow (4) (sec. 3.1)
   bool intersection_flow = true;  // run flow (5) (sec. 3.2)
   // Explicit (false, the paper's scheme) or semi-implicit bilaplacian (true: the paper's sec. 5
-  // suggestion after Desbrun et al. [11]). See fair.cpp for what each solves.
+  // suggestion after Desbrun et al. [11]). See fair_operators.cpp for what each solves.
   bool semi_implicit = false;
   // Iterations; each is one step of flow (4) followed by one step of flow (5). 0 = 30.
   uint32_t iterations = 0;
@@ -82,7 +82,7 @@ struct FairingParams {
   // τ₅, the dimensionless time step of flow (5): each step moves a vertex by
   // τ₅ · f∇f / max(|∇f|², 4 d*²) (a Gauss-Newton step toward f = 0, which a plain f∇f step
   // with length³ units is not) plus τ₅ · W U²; relative to rest (FairingRest), h∇h / max(|∇h|²,
-  // 4 e²) with the penetration h of fair.cpp and e the rest edge length. 0 = 0.15.
+  // 4 e²) with the penetration h of fair_intersection.cpp and e the rest edge length. 0 = 0.15.
   float intersection_step = 0.0f;
   // Cells per axis of flow (5)'s grid over the bounding box of skeleton and mesh. 0 = 20
   // (the paper's 20×20×20). Must not exceed the workspace's grid_size.
@@ -169,11 +169,11 @@ struct FairingWorkspace {
 // vertices sit slightly inside neighbouring balls — so the plain flows would reshape an
 // undeformed character. Each term is therefore taken relative to its rest value: the
 // bilaplacian and umbrella vectors minus the rest ones carried by the vertex's local frame
-// (V weighted down where the medial radius is below 3 mean edge lengths: fair.cpp fold_step),
+// (V weighted down where the medial radius is below 3 mean edge lengths: fair_fold.cpp fold_step),
 // E_T minus the centroid's rest E_T, the power difference to the nearest other ball never
 // below its rest value for that ball, nor below a margin of 0.75 rest edge lengths (or medial
 // radii, if smaller) where it was farther at rest (flow (5) then pushes towards the own side of
-// the radical plane: fair.cpp), |f − g| less its rest value. At rest every force is zero; away
+// the radical plane: fair_intersection.cpp), |f − g| less its rest value. At rest every force is zero; away
 // from rest the flows act as the paper's on what the pose changed. Built once per asset by make_fairing_rest().
 struct FairingRest {
   explicit FairingRest(const AllocatorRef& a)
@@ -246,7 +246,7 @@ float fair_run(const FairingTopology& topology, const glm::vec3* skeletal, const
 // Finite for every finite input (degenerate triangle, coincident centres, one ball containing
 // the others). In the tangent-plane case the gradient is that plane's unit normal (also for P
 // in the skeletal triangle); on an edge or a vertex it is 0 where P = c(b*) exactly.
-// Evaluated in double: the tangent-plane solve is ill-conditioned for thin triangles.
+// Evaluated in float, with a relative degeneracy test for thin triangles (ball_hull.cpp).
 struct HullDistance {
   float value = 0.0f;
   glm::vec3 gradient{0.0f};

@@ -158,6 +158,50 @@ void triangle_forces(const FairingTopology& topo, const glm::vec3* skeletal, con
   hinted_forces(forces, hinted, hinted_count);
 }
 
+// α of vertex v: kAlphaSmooth unless kObtuseFraction or more of the neighbours' umbrella
+// vectors are obtuse to U(p). An umbrella below a thousandth of the edge length `edge`
+// (relative to rest: the pose has not changed the surface here) has no meaningful direction:
+// no fold, α as for a smooth spot.
+float fold_alpha(const FairingTopology& topo, const FairingWorkspace& ws, uint32_t v, float edge) {
+  const uint32_t begin = topo.neighbour_offsets[v], end = topo.neighbour_offsets[v + 1];
+  uint32_t obtuse = 0;
+  for (uint32_t k = begin; k < end; ++k)
+    if (glm::dot(ws.umbrella[topo.neighbours[k]], ws.umbrella[v]) < 0.0f) ++obtuse;
+  const bool negligible = glm::length(ws.umbrella[v]) < 1e-3f * edge;
+  return negligible || static_cast<float>(obtuse) < kObtuseFraction * static_cast<float>(end - begin) ? kAlphaSmooth
+                                                                                                      : 0.0f;
+}
+
+// F = (1/n) Σ_j E_{T_j}(C_j) ∇E_{T_j}(C_j) over the triangles incident to v.
+glm::vec3 vertex_force(const FairingTopology& topo, const FairingWorkspace& ws, uint32_t v) {
+  const uint32_t tri_begin = topo.incident_offsets[v], tri_end = topo.incident_offsets[v + 1];
+  glm::vec3 force(0.0f);
+  for (uint32_t k = tri_begin; k < tri_end; ++k) force += ws.triangle_force[topo.incident_triangles[k]];
+  if (tri_end > tri_begin) force /= static_cast<float>(tri_end - tri_begin);
+  return force;
+}
+
+// F̂, softened: where |F| is below a thousandth of the vertex's edge length its direction is
+// rounding noise, and a V that turned with it would make a held pose jitter; the projection
+// fades out there instead (|direction| < 1).
+glm::vec3 soft_direction(const glm::vec3& force, float edge) {
+  const float force_length = glm::length(force);
+  const float soft = 1e-3f * edge;
+  return force_length > 0.0f ? force / std::max(force_length, soft) : glm::vec3(0.0f);
+}
+
+// V's weight at vertex v, relative to rest. V restores the rest shape of the vertex's 2-ring
+// (the bi-umbrella's support) as seen in its local frame. Where the mesh is coarse for the part
+// it covers, a medial radius d below kRestShapeRadius mean edge lengths, the 2-ring spans a
+// good part of a limb's cross-section (RiggedFigure's 130-vertex body everywhere; a dense
+// character's fingers), articulation bends the 2-ring itself, and the rest shape turned by one
+// frame is no longer the shape to restore: there V is weighted by d / (kRestShapeRadius e). A
+// uniformly lower weight would not do: Fig. 11 needs V where the mesh is fine. The paper's
+// (absolute) V keeps weight 1.
+float rest_shape_weight(const float* radius, uint32_t v, float edge, const Targets& targets) {
+  return targets.umbrella ? std::min(1.0f, std::max(radius[v], 0.0f) / (kRestShapeRadius * edge)) : 1.0f;
+}
+
 }  // namespace
 
 // One step of flow (4).
@@ -176,31 +220,10 @@ void fold_step(const FairingTopology& topo, const glm::vec3* skeletal, const flo
     ws.smoothing_weight[v] = 0.0f;
     ws.force_direction[v] = glm::vec3(0.0f);
     if (is_fixed(topo, ws, v)) continue;
-    // α: 0.25 unless 30 % or more of the neighbours' umbrella vectors are obtuse to U(p).
-    const uint32_t begin = topo.neighbour_offsets[v], end = topo.neighbour_offsets[v + 1];
-    uint32_t obtuse = 0;
-    for (uint32_t k = begin; k < end; ++k)
-      if (glm::dot(ws.umbrella[topo.neighbours[k]], ws.umbrella[v]) < 0.0f) ++obtuse;
-    // An umbrella below a thousandth of the edge length (relative to rest: the pose has not
-    // changed the surface here) has no meaningful direction: no fold, α as for a smooth spot.
     const float edge = edge_scale(topo, x, ws, v);
-    const bool negligible = glm::length(ws.umbrella[v]) < 1e-3f * edge;
-    const float alpha = negligible || static_cast<float>(obtuse) < kObtuseFraction * static_cast<float>(end - begin)
-                            ? kAlphaSmooth
-                            : 0.0f;
-
-    // F = (1/n) Σ_j E_{T_j}(C_j) ∇E_{T_j}(C_j) over the incident triangles.
-    const uint32_t tri_begin = topo.incident_offsets[v], tri_end = topo.incident_offsets[v + 1];
-    glm::vec3 force(0.0f);
-    for (uint32_t k = tri_begin; k < tri_end; ++k) force += ws.triangle_force[topo.incident_triangles[k]];
-    if (tri_end > tri_begin) force /= static_cast<float>(tri_end - tri_begin);
-    // F̂, softened: where |F| is below a thousandth of the vertex's edge length its direction is
-    // rounding noise, and a V that turned with it would make a held pose jitter; the
-    // projection fades out there instead (|direction| < 1).
-    const float force_length = glm::length(force);
-    const float soft = 1e-3f * edge;
-    const glm::vec3 direction = force_length > 0.0f ? force / std::max(force_length, soft) : glm::vec3(0.0f);
-
+    const float alpha = fold_alpha(topo, ws, v, edge);
+    const glm::vec3 force = vertex_force(topo, ws, v);
+    const glm::vec3 direction = soft_direction(force, edge);
     // V = Δ²M − (Δ²M·F̂)F̂ (V = Δ²M where F = 0).
     const glm::vec3& bi = ws.bi_umbrella[v];
     const glm::vec3 tangential = bi - glm::dot(bi, direction) * direction;
@@ -211,19 +234,10 @@ void fold_step(const FairingTopology& topo, const glm::vec3* skeletal, const flo
     // (rest-shape smoothing there pushes the inner side of tight bends into itself on coarse
     // meshes), V keeps restoring the rest shape along the surface.
     const glm::vec3& smooth = targets.reference_bi_umbrella ? ws.bi_reference[v] : bi;
-    // V's weight, relative to rest. V restores the rest shape of the vertex's 2-ring (the
-    // bi-umbrella's support) as seen in its local frame. Where the mesh is coarse for the part
-    // it covers, a medial radius d below kRestShapeRadius mean edge lengths, the 2-ring spans a
-    // good part of a limb's cross-section (RiggedFigure's 130-vertex body everywhere; a dense
-    // character's fingers), articulation bends the 2-ring itself, and the rest shape turned by
-    // one frame is no longer the shape to restore: there V is weighted by d / (kRestShapeRadius
-    // e). A uniformly lower weight would not do: Fig. 11 needs V where the mesh is fine. The
-    // paper's (absolute) V keeps weight 1.
-    const float rest_shape_weight =
-        targets.umbrella ? std::min(1.0f, std::max(radius[v], 0.0f) / (kRestShapeRadius * edge)) : 1.0f;
-    ws.tangential_weight[v] = rest_shape_weight;
+    const float tangential_weight = rest_shape_weight(radius, v, edge, targets);
+    ws.tangential_weight[v] = tangential_weight;
     ws.displacement[v] =
-        semi_implicit ? -step * force : -step * (alpha * smooth + force + rest_shape_weight * tangential);
+        semi_implicit ? -step * force : -step * (alpha * smooth + force + tangential_weight * tangential);
   }
 
   if (!semi_implicit) {

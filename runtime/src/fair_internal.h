@@ -32,7 +32,7 @@ constexpr int kGaussSeidelSweeps = 3;
 // against a far-off vertex overshooting (scale-free, so scale invariance is kept).
 constexpr float kMaxStepPerEdge = 0.5f;
 // Relative to rest, flow (4)'s V has its full weight where the medial radius is at least this
-// many rest mean edge lengths, and d / (kRestShapeRadius e) below (fold_step).
+// many rest mean edge lengths, and d / (kRestShapeRadius e) below (fair_fold.cpp).
 constexpr float kRestShapeRadius = 3.0f;
 // Flow (5) relative to rest keeps a vertex this many rest mean edge lengths (or medial radii,
 // if smaller) on its own side of the radical plane with any ball it was farther from at rest
