@@ -337,7 +337,7 @@ class Grid {
     return glm::vec3(ws_.boxes[6 * size_t(t) + 3], ws_.boxes[6 * size_t(t) + 4], ws_.boxes[6 * size_t(t) + 5]);
   }
   int coordinate(float value, int k) const {
-    // Clamped while still a float (fair.cpp cell_coordinate): a cell that underflowed makes c
+    // Clamped while still a float (fair_intersection.cpp cell_coordinate): a cell that underflowed makes c
     // inf, and inf converted to int is undefined behaviour.
     const float c = (value - origin_[k]) * inverse_cell_;
     if (!(c >= 0.0f)) return 0;

@@ -1,10 +1,11 @@
-// SSE2 loads and stores of glm::vec3, and four-lane float helpers, for the runtime's
-// hand-vectorised kernels (refine.cpp, refine_normals.cpp, fair.cpp). SSE2 is part of x86-64
-// itself, so no ISA flag and no runtime dispatch: the kernels compile these under
-// `#if defined(__SSE2__)` and keep their portable loops as the fallback. One vec3 sits in the low three lanes of an __m128; its lanes compute exactly what
-// the scalar code computes per component (the same IEEE operations in the same order, no
-// fused multiply-add), so the results keep the scalar code's bits. What the fourth lane holds
-// is never stored.
+// SSE2 loads and stores of glm::vec3, and four-lane float helpers, for the runtime's hand-
+// vectorised kernels (refine.cpp, refine_normals.cpp, fair_operators.cpp, ball_hull.h,
+// fair_frames.cpp). SSE2 is part of x86-64 itself, so no ISA flag and no runtime dispatch: the
+// kernels compile these under `#if defined(__SSE2__)` and keep their portable loops as the
+// fallback. One vec3 sits in the low three lanes of an __m128; its lanes compute exactly what
+// the scalar code computes per component (the same IEEE operations in the same order, no fused
+// multiply-add), so the results keep the scalar code's bits. What the fourth lane holds is
+// never stored.
 #pragma once
 
 #if defined(__SSE2__)
@@ -64,7 +65,7 @@ inline void store3(glm::vec3& v, __m128 a) {
 namespace skelform::runtime {
 
 // Four float lanes for the kernels that evaluate a scalar formula for four triangles, balls,
-// edges or rows at once (fair.cpp, refine.cpp): each helper is one IEEE operation per lane (no
+// edges or rows at once (fair_frames.cpp, refine.cpp): each helper is one IEEE operation per lane (no
 // fused multiply-add), so a lane computes what the scalar code computes, in the same order.
 namespace lane4 {
 inline __m128 load(const float* p) { return _mm_loadu_ps(p); }

@@ -1,6 +1,6 @@
-// Checks runtime/src/fair.cpp: E_T against its definition, the signs of flows (4) and (5),
-// their determinism and scale invariance, and the target on a bent, twisted capsule
-// (self-intersections and volume change against LBS).
+// Checks the fairing (runtime/src/fair*.cpp, ball_hull.*): E_T against its definition, the
+// signs of flows (4) and (5), their determinism and scale invariance, and the target
+// on a bent, twisted capsule (self-intersections and volume change against LBS).
 #include "fair.h"
 #include "instance.h"
 #include "runtime/runtime_models.h"
