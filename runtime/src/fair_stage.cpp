@@ -17,6 +17,59 @@
 
 namespace skelform::runtime {
 
+namespace {
+
+// Pose jump: the local shape of M (each umbrella vector in its vertex's frame, in units of the
+// vertex's mean edge length) changed by more than kPoseJumpShape at more than
+// kPoseJumpFraction of the vertices since the last evaluation. Rigid motion leaves it
+// unchanged; 30 fps animation changes it at a few thin spots (fast legs); a teleport into
+// another pose, a new animation or a switch of driver changes it over whole limbs. Stores
+// this evaluation's shapes; returns how many vertices changed by more than kPoseJumpShape.
+uint32_t record_local_shapes(sf_instance& instance, const glm::mat3* frames) {
+  const FairingTopology& topo = instance.deformable->fairing_topology;
+  const uint32_t n = instance.deformable->control_vertex_count;
+  uint32_t changed = 0;
+  for (uint32_t v = 0; v < n; ++v) {
+    const uint32_t begin = topo.neighbour_offsets[v], end = topo.neighbour_offsets[v + 1];
+    if (begin == end) continue;
+    const glm::vec3 shape = glm::transpose(frames[v]) * instance.fairing_reference_umbrella[v] /
+                            std::max(instance.fairing_mean_edge[v], 1e-30f);
+    const float change = glm::length(shape - instance.fairing_shape[v]);
+    if (!(change <= kPoseJumpShape)) ++changed;  // NaN counts as changed
+    instance.fairing_shape[v] = shape;
+  }
+  return changed;
+}
+
+// This evaluation's fairing parameters: the options' with their defaults filled in, the α and
+// W smoothing acting on the correction (fair.h FairingParams::smoothing_reference), and the
+// vertices the flows leave where the driver put them.
+FairingParams stage_params(sf_instance& instance, const FairStageOptions& options) {
+  const Deformable& d = *instance.deformable;
+  const size_t n = d.control_vertex_count;
+  const glm::vec3* skeletal = instance.skeletal.data();
+  FairingParams params = options.params;
+  params.smoothing_reference = instance.fairing_start.data();
+  params.smoothing_reference_umbrella = instance.fairing_reference_umbrella.data();
+  // The handle driver's pinned region stays at rest (paper Fig. 1): a skeletal vertex that the
+  // displacement field left exactly in place keeps its control vertex out of the fairing.
+  if (instance.driver == Driver::handles) {
+    for (size_t v = 0; v < n; ++v) instance.fairing_fixed[v] = skeletal[v] == d.skeletal_positions[v] ? 1 : 0;
+    params.fixed = instance.fairing_fixed.data();
+  } else if (!d.control_rigid.empty()) {
+    // The skin driver: what one joint carries alone moves rigidly with it (lbs_guard.h), so
+    // the flows leave it where the skin put it and bend the blend zones between.
+    params.fixed = d.control_rigid.data();
+  }
+  if (params.iterations == 0) params.iterations = kDefaultFairingIterations;
+  if (!(params.fold_step > 0.0f))
+    params.fold_step = params.semi_implicit ? kDefaultFoldStepSemiImplicit : kDefaultFoldStepExplicit;
+  if (!(params.intersection_step > 0.0f)) params.intersection_step = kDefaultIntersectionStep;
+  return params;
+}
+
+}  // namespace
+
 void fair_stage(sf_instance& instance, const FairStageOptions& options) {
   const Deformable& d = *instance.deformable;
   instance.last_fairing_iterations = 0;
@@ -35,23 +88,8 @@ void fair_stage(sf_instance& instance, const FairStageOptions& options) {
   fairing_frames(d.fairing_topology, skeletal, x, frames, &d.fairing_rest, instance.fairing_reference_umbrella.data(),
                  instance.fairing_mean_edge.data());
 
-  // Pose jump: the local shape of M (each umbrella vector in its vertex's frame, in units of
-  // the vertex's mean edge length) changed by more than kPoseJumpShape at more than
-  // kPoseJumpFraction of the vertices since the last evaluation. Rigid motion leaves it
-  // unchanged; 30 fps animation changes it at a few thin spots (fast legs); a teleport into
-  // another pose, a new animation or a switch of driver changes it over whole limbs.
-  // The stored correction then belongs to another pose and is discarded.
   const FairingTopology& topo = d.fairing_topology;
-  uint32_t changed = 0;  // vertices whose local shape changed by more than kPoseJumpShape
-  for (uint32_t v = 0; v < n; ++v) {
-    const uint32_t begin = topo.neighbour_offsets[v], end = topo.neighbour_offsets[v + 1];
-    if (begin == end) continue;
-    const glm::vec3 shape = glm::transpose(frames[v]) * instance.fairing_reference_umbrella[v] /
-                            std::max(instance.fairing_mean_edge[v], 1e-30f);
-    const float change = glm::length(shape - instance.fairing_shape[v]);
-    if (!(change <= kPoseJumpShape)) ++changed;  // NaN counts as changed
-    instance.fairing_shape[v] = shape;
-  }
+  const uint32_t changed = record_local_shapes(instance, frames);
   // A switch of driver (handles ↔ skin) is a jump too.
   const bool jump = static_cast<float>(changed) > kPoseJumpFraction * static_cast<float>(n);
   const bool warm =
@@ -59,8 +97,7 @@ void fair_stage(sf_instance& instance, const FairStageOptions& options) {
   instance.fairing_driver = instance.driver;
   // Annealing. f is a minimum over balls and α a threshold rule, so the flows' right-hand
   // sides jump where the minimiser or the rule switches, and fixed steps chatter there with an
-  // amplitude proportional to the step (measured: 3e-3 of the diagonal per iteration at the
-  // default steps on a bent capsule, 2e-4 at a tenth of them). A held pose (the same
+  // amplitude proportional to the step (docs/tuning.md). A held pose (the same
   // reconstruction, bit for bit, as last time) therefore halves the steps at every evaluation,
   // so it comes to rest; any change of the input restores them.
   const bool held = warm && std::memcmp(instance.fairing_start.data(), x, n * sizeof(glm::vec3)) == 0;
@@ -69,24 +106,7 @@ void fair_stage(sf_instance& instance, const FairStageOptions& options) {
   if (warm)
     for (size_t v = 0; v < n; ++v) x[v] += frames[v] * instance.fairing_offset[v];
 
-  FairingParams params = options.params;
-  // The α and W smoothing act on the correction (fair.h FairingParams::smoothing_reference).
-  params.smoothing_reference = instance.fairing_start.data();
-  params.smoothing_reference_umbrella = instance.fairing_reference_umbrella.data();
-  // The handle driver's pinned region stays at rest (paper Fig. 1): a skeletal vertex that the
-  // displacement field left exactly in place keeps its control vertex out of the fairing.
-  if (instance.driver == Driver::handles) {
-    for (size_t v = 0; v < n; ++v) instance.fairing_fixed[v] = skeletal[v] == d.skeletal_positions[v] ? 1 : 0;
-    params.fixed = instance.fairing_fixed.data();
-  } else if (!d.control_rigid.empty()) {
-    // The skin driver: what one joint carries alone moves rigidly with it (lbs_guard.h), so
-    // the flows leave it where the skin put it and bend the blend zones between.
-    params.fixed = d.control_rigid.data();
-  }
-  if (params.iterations == 0) params.iterations = kDefaultFairingIterations;
-  if (!(params.fold_step > 0.0f))
-    params.fold_step = params.semi_implicit ? kDefaultFoldStepSemiImplicit : kDefaultFoldStepExplicit;
-  if (!(params.intersection_step > 0.0f)) params.intersection_step = kDefaultIntersectionStep;
+  const FairingParams params = stage_params(instance, options);
   // A fresh start forgets the tracking schedule too: its result depends on this input only.
   if (!warm) {
     instance.fairing.search_phase = 0;
