@@ -247,6 +247,23 @@ bool query_triangle_hierarchy(const TriangleHierarchy& h, const float* node_boxe
 
 namespace detail {
 
+// Per node, whether it holds a wanted triangle (children before parents: nodes are stored
+// parents first), and per leaf its wanted lanes.
+inline void mark_wanted(const TriangleHierarchy& h, const uint8_t* wanted, uint8_t* node_wanted,
+                        uint32_t* leaf_wanted) {
+  for (size_t n = h.nodes.size(); n-- > 0;) {
+    const HierarchyNode node = h.nodes[n];
+    uint32_t lanes = 0;
+    if (node.count > 0) {
+      for (uint32_t i = 0; i < node.count; ++i) lanes |= (wanted[h.order[node.first + i]] ? 1u : 0u) << i;
+      node_wanted[n] = lanes ? 1 : 0;
+    } else {
+      node_wanted[n] = node_wanted[node.first] | node_wanted[node.first + 1];
+    }
+    leaf_wanted[n] = lanes;
+  }
+}
+
 // The leaf-pair kernel: for each of the `count_a` triangles in slots first_a.. (leaf A),
 // masks[i] gets bit j when lane j of the leaf at first_b (B, kLeafTriangles lanes; lanes past
 // B are not masked here) holds a triangle whose box meets triangle i's and that shares no
@@ -388,17 +405,7 @@ bool self_pairs_triangle_hierarchy(const TriangleHierarchy& h, const float* node
                                    const uint8_t* wanted, uint8_t* node_wanted, uint32_t* leaf_wanted, Visit&& visit) {
   static_assert(kLeafTriangles % 4 == 0 && kLeafTriangles < 32, "a leaf: groups of four lanes, its lanes one word");
   if (h.nodes.empty()) return true;
-  for (size_t n = h.nodes.size(); n-- > 0;) {
-    const HierarchyNode node = h.nodes[n];
-    uint32_t lanes = 0;
-    if (node.count > 0) {
-      for (uint32_t i = 0; i < node.count; ++i) lanes |= (wanted[h.order[node.first + i]] ? 1u : 0u) << i;
-      node_wanted[n] = lanes ? 1 : 0;
-    } else {
-      node_wanted[n] = node_wanted[node.first] | node_wanted[node.first + 1];
-    }
-    leaf_wanted[n] = lanes;
-  }
+  detail::mark_wanted(h, wanted, node_wanted, leaf_wanted);
   const detail::LeafPairInput input{boxes.planes.data(), boxes.stride, h.corners.data(), h.slot_stride()};
   const detail::LeafPairKernel kernel = detail::leaf_pair_kernel();
   uint32_t masks[kLeafTriangles];
