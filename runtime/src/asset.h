@@ -114,7 +114,7 @@ struct Deformable {
 
   // Loop stencils to level `subdivision_level` and the refined triangles. The loader renumbers
   // the refined vertices (stencil rows and triangle corners alike) in the order the dense
-  // vertices' bindings first name them, for locality (asset_load.cpp
+  // vertices' bindings first name them, for locality (asset_derive.cpp
   // renumber_refined_vertices); the numbering is internal, the results are the baked ones.
   uint32_t subdivision_level = 0;
   uint32_t refined_vertex_count = 0;
@@ -123,7 +123,7 @@ struct Deformable {
   Array<uint32_t> stencil_offsets;  // refined_vertex_count + 1
   Array<uint32_t> stencil_indices;
   Array<float> stencil_weights;
-  // The same stencils grouped for refine_surface (asset_load.cpp group_stencils): rows of
+  // The same stencils grouped for refine_surface (asset_derive.cpp group_stencils): rows of
   // equal length, kStencilLanes per group, groups in order of length. Group g has
   // stencil_group_lengths[g] steps; step s holds entry s of each of its rows, lane by lane
   // (kStencilLanes indices and weights), so a group sums its rows side by side without a

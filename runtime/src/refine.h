@@ -1,6 +1,6 @@
 // Runtime step 4 (DESIGN.md), first half: Loop refinement of the (deformed) control mesh and
 // of its normals with the baked stencils, and the DSS frame of each dense
-// vertex's bound point. asset_load.cpp runs these once on the rest control mesh (to derive
+// vertex's bound point. asset_derive.cpp runs these once on the rest control mesh (to derive
 // Deformable::rest_frames); the evaluation runs them every frame on the faired control mesh.
 //
 // Same arithmetic as the baker (bake/src/subdivision.cpp apply_stencils and dss_frame.h), in

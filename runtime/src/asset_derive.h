@@ -1,0 +1,21 @@
+// What the loader derives once per deformable after reading it (asset_derive.cpp): the
+// stencils renumbered and grouped for the per-frame loops, the rest frames and handle control
+// vertices, and the fairing's connectivity and rest values. Private to the loader; the
+// deformable has passed every check of asset_load.cpp's reading.
+#pragma once
+
+#include "asset.h"
+#include "memory.h"
+
+namespace skelform::runtime::loader {
+
+// The rest evaluation, once: refined rest surface, the corners of every bound triangle, the
+// rest normal and tangent in the frame at every bound point, and the control vertex a handle
+// on each dense vertex moves. Renumbers and groups the stencils first and keeps only the
+// grouped ones.
+void derive_rest_data(Deformable& deformable);
+
+// The fairing's connectivity and rest values (fair.h), once per deformable.
+void derive_fairing_data(Deformable& deformable, const AllocatorRef& allocator);
+
+}  // namespace skelform::runtime::loader
