@@ -6,7 +6,8 @@
 //   fair_stage.cpp      M → M''          flows (4), (5), warm-started from the previous evaluation
 //   displace.cpp        M'' → dense      Loop stencils, DSS binding, carried normals/tangents
 //   dense_skinning.cpp  baselines        SF_METHOD_LBS / SF_METHOD_DQS on the original vertices
-//   api_instance.cpp    the C API; sf_instance_write copies into the caller's buffers
+//   api_instance.cpp    the C API: creation, poses, handle sets; api_evaluate.cpp runs the stages,
+//   api_output.cpp      sf_instance_write copies into the caller's buffers
 //
 // Every buffer an evaluation touches is allocated in sf_instance_create (handle sets
 // excepted, by the API's contract), so evaluation and output never allocate.

@@ -1,0 +1,99 @@
+// Output for the instance half of the C API (skelform.h "Evaluation"): the strided copy of
+// the last evaluation's dense result into the caller's vertex buffers, and of its coarse
+// meshes (S', M) for inspection.
+#include "api_instance.h"
+
+#include <cstring>
+
+using namespace skelform::runtime;
+
+namespace {
+
+// Copies one element per vertex from `source` to the caller's strided stream. Only the
+// element bytes are written; the gaps of a larger stride are never touched. A tightly packed
+// stream (the default stride) is one block copy: the same bytes, without a call per vertex.
+template <class Element>
+void write_stream(float* destination, size_t stride, const Element* source, size_t count) {
+  unsigned char* out = reinterpret_cast<unsigned char*>(destination);
+  if (stride == sizeof(Element)) {
+    std::memcpy(out, source, count * sizeof(Element));
+    return;
+  }
+  for (size_t i = 0; i < count; ++i) std::memcpy(out + i * stride, &source[i], sizeof(Element));
+}
+
+}  // namespace
+
+extern "C" {
+
+sf_result sf_instance_write(const sf_instance* instance, uint32_t primitive, const sf_vertex_output* output) {
+  if (!instance) return SF_ERROR_INVALID_ARGUMENT;
+  return guarded(instance, "sf_instance_write", [&]() -> sf_result {
+    const Deformable& d = *instance->deformable;
+    if (!output) return fail(instance, SF_ERROR_INVALID_ARGUMENT, "sf_instance_write: output is NULL");
+    if (primitive >= d.primitives.size())
+      return fail(instance, SF_ERROR_INVALID_ARGUMENT, "sf_instance_write: primitive %u, the deformable has %zu",
+                  primitive, d.primitives.size());
+    if (!instance->evaluated)
+      return fail(instance, SF_ERROR_NOT_READY, "sf_instance_write: nothing evaluated yet (sf_instance_evaluate)");
+    const PrimitiveRecord& p = d.primitives[primitive];
+    if (output->vertex_capacity < p.vertex_count)
+      return fail(instance, SF_ERROR_INVALID_ARGUMENT, "sf_instance_write: capacity %zu, the primitive has %u vertices",
+                  output->vertex_capacity, p.vertex_count);
+    const size_t position_stride = output->position_stride ? output->position_stride : 12;
+    const size_t normal_stride = output->normal_stride ? output->normal_stride : 12;
+    const size_t tangent_stride = output->tangent_stride ? output->tangent_stride : 16;
+    if ((output->positions && position_stride < 12) || (output->normals && normal_stride < 12) ||
+        (output->tangents && tangent_stride < 16))
+      return fail(instance, SF_ERROR_INVALID_ARGUMENT,
+                  "sf_instance_write: a stride is smaller than its element (12 bytes, 16 for tangents)");
+    if (output->tangents && !p.has_tangents)
+      return fail(instance, SF_ERROR_UNSUPPORTED, "sf_instance_write: primitive %u has no authored tangents",
+                  primitive);
+    const size_t first = p.first_vertex, count = p.vertex_count;
+    if (output->positions)
+      write_stream(output->positions, position_stride, instance->dense_positions.data() + first, count);
+    // After an evaluation with SF_EVAL_SKIP_NORMALS the normal streams are left as they are.
+    if (instance->normals_valid) {
+      if (output->normals) write_stream(output->normals, normal_stride, instance->dense_normals.data() + first, count);
+      if (output->tangents)
+        write_stream(output->tangents, tangent_stride, instance->dense_tangents.data() + first, count);
+    }
+    return SF_OK;
+  });
+}
+
+sf_result sf_instance_write_coarse(const sf_instance* instance, uint32_t mesh, float* positions, size_t stride_bytes,
+                                   size_t vertex_capacity) {
+  if (!instance) return SF_ERROR_INVALID_ARGUMENT;
+  return guarded(instance, "sf_instance_write_coarse", [&]() -> sf_result {
+    const Deformable& d = *instance->deformable;
+    if (mesh > SF_COARSE_SKELETAL)
+      return fail(instance, SF_ERROR_INVALID_ARGUMENT, "sf_instance_write_coarse: unknown mesh %u", mesh);
+    if (!positions) return fail(instance, SF_ERROR_INVALID_ARGUMENT, "sf_instance_write_coarse: positions is NULL");
+    const size_t stride = stride_bytes ? stride_bytes : 12;
+    if (stride < 12)
+      return fail(instance, SF_ERROR_INVALID_ARGUMENT, "sf_instance_write_coarse: stride %zu is smaller than 12",
+                  stride_bytes);
+    if (vertex_capacity < d.control_vertex_count)
+      return fail(instance, SF_ERROR_INVALID_ARGUMENT,
+                  "sf_instance_write_coarse: capacity %zu, the mesh has %u vertices", vertex_capacity,
+                  d.control_vertex_count);
+    if (!instance->has_previous)
+      return fail(instance, SF_ERROR_NOT_READY,
+                  "sf_instance_write_coarse: no SF_METHOD_SKELFORM evaluation yet (sf_instance_evaluate)");
+    // After an evaluation its S' and M live in previous_* (the incremental start).
+    const glm::vec3* source =
+        mesh == SF_COARSE_SKELETAL ? instance->previous_skeletal.data() : instance->previous_control.data();
+    // Held in the evaluation's normalised space (instance.h JointTransforms).
+    const float scale = instance->output_scale;
+    unsigned char* out = reinterpret_cast<unsigned char*>(positions);
+    for (uint32_t v = 0; v < d.control_vertex_count; ++v) {
+      const glm::vec3 p = source[v] * scale;
+      std::memcpy(out + v * stride, &p, sizeof p);
+    }
+    return SF_OK;
+  });
+}
+
+}  // extern "C"
