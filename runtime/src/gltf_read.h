@@ -51,6 +51,19 @@ class GltfError : public std::runtime_error {
   Kind kind_;
 };
 
+namespace detail {
+
+// What gltf_read.cpp and gltf_accessors.cpp share: an invalid-data error naming `what`, and a
+// little-endian 32-bit read.
+[[noreturn]] inline void invalid(const std::string& what, const std::string& problem) {
+  throw GltfError(GltfError::invalid, what + ": " + problem);
+}
+inline uint32_t read_u32_le(const unsigned char* p) {
+  return uint32_t{p[0]} | uint32_t{p[1]} << 8 | uint32_t{p[2]} << 16 | uint32_t{p[3]} << 24;
+}
+
+}  // namespace detail
+
 // Where external files (buffer and image URIs that are not data URIs) may come from.
 enum class ExternalFiles {
   // Read them relative to the directory of `name`. A buffer that cannot be read makes the
