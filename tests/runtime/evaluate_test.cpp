@@ -1,4 +1,4 @@
-// Evaluation through the C API (runtime/src/api_instance.cpp and the stage files it runs):
+// Evaluation through the C API (runtime/src/api_evaluate.cpp and the stage files it runs):
 // - rest pose: every method reproduces the original vertices and authored normals/tangents
 //   (DESIGN.md "rest error" ≤ 1e-5 of the diagonal; normals within 0.1°), from rest and
 //   incrementally, on a procedural capsule (always) and on every skinned sample model;
