@@ -3,7 +3,7 @@
 // only the flat arrays that the extension stores.
 #pragma once
 
-#include "dss_frame.h"
+#include "skelform/core/dss_frame.h"
 #include "skelform/bake/baked.h"
 
 #include <vector>

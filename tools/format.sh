@@ -19,7 +19,7 @@ format=$(command -v clang-format-14 || true)
 if git rev-parse --is-inside-work-tree >/dev/null 2>&1; then
   mapfile -t files < <(git ls-files '*.c' '*.cpp' '*.h')
 else
-  mapfile -t files < <(find bake bench runtime samples tests tools -name node_modules -prune -o \
+  mapfile -t files < <(find bake bench core runtime samples tests tools -name node_modules -prune -o \
                             \( -name '*.c' -o -name '*.cpp' -o -name '*.h' \) -print | sort)
 fi
 if [ "$check" -eq 0 ]; then

@@ -11,7 +11,7 @@
 #include "skelform/bake/topology.h"
 #include "skelform/bake/weld.h"
 
-#include "skelform_weight.h"
+#include "skelform/core/skelform_weight.h"
 
 #include <glm/geometric.hpp>
 

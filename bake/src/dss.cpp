@@ -4,12 +4,12 @@
 // the displaced subdivision surface's scalar displacement along its smooth normal field.
 // The closest point gives the start; Newton on (b1, b2, h) refines it and walks across
 // edges; what the normal field cannot reach goes into a tangential residual. The last step
-// is done in float through runtime/src/dss_frame.h, the very code the runtime runs.
+// is done in float through core/include/skelform/core/dss_frame.h, the very code the runtime runs.
 #include "skelform/bake/dss.h"
 
 #include "skelform/bake/metrics.h"
 
-#include "dss_frame.h"
+#include "skelform/core/dss_frame.h"
 
 #include <glm/geometric.hpp>
 #include <glm/mat3x3.hpp>

@@ -3,7 +3,7 @@
 // the same files with the same sentences.
 #include "skelform/bake/gltf_access.h"
 
-#include "gltf_read.h"
+#include "skelform/core/gltf_read.h"
 
 #include <tiny_gltf.h>
 

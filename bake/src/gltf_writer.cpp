@@ -9,8 +9,8 @@
 #include "skelform/bake/glb.h"
 #include "skelform/bake/input.h"
 
-#include "extension_layout.h"
-#include "gltf_read.h"
+#include "skelform/core/extension_layout.h"
+#include "skelform/core/gltf_read.h"
 #include "skelform/bake/mesh.h"
 #include "skelform/bake/output.h"
 

@@ -4,8 +4,8 @@
 #include "skelform/bake/gltf_access.h"
 
 #include "input_formats.h"
-#include "extension_layout.h"
-#include "skin_repair.h"
+#include "skelform/core/extension_layout.h"
+#include "skelform/core/skin_repair.h"
 
 #include <tiny_gltf.h>
 

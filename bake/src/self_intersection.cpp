@@ -2,7 +2,7 @@
 // narrow phase in double.
 #include "skelform/bake/self_intersection.h"
 
-#include "triangle_intersection.h"
+#include "skelform/core/triangle_intersection.h"
 
 #include <glm/geometric.hpp>
 

@@ -5,7 +5,7 @@
 // replays the table on the deformed control mesh.
 #include "skelform/bake/subdivision.h"
 
-#include "dss_frame.h"
+#include "skelform/core/dss_frame.h"
 
 #include <opensubdiv/far/primvarRefiner.h>
 #include <opensubdiv/far/stencilTable.h>

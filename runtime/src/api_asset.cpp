@@ -3,7 +3,7 @@
 #include "asset.h"
 #include "asset_load.h"
 #include "file_read.h"
-#include "gltf_read.h"
+#include "skelform/core/gltf_read.h"
 #include "memory.h"
 
 #include "skelform/skelform.h"

@@ -4,7 +4,7 @@
 // indexed before it is checked: a corrupt file ends in an error, never in a read out of bounds.
 #include "asset_read.h"
 
-#include "gltf_read.h"
+#include "skelform/core/gltf_read.h"
 
 #include <algorithm>
 #include <cmath>

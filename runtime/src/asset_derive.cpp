@@ -3,7 +3,7 @@
 // rest frames and handle control vertices of the dense vertices, and the fairing's rest data.
 #include "asset_derive.h"
 
-#include "dss_frame.h"
+#include "skelform/core/dss_frame.h"
 #include "refine.h"
 #include "skin_blend.h"
 

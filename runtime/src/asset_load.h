@@ -4,7 +4,7 @@
 #pragma once
 
 #include "asset.h"
-#include "gltf_read.h"
+#include "skelform/core/gltf_read.h"
 #include "memory.h"
 
 #include <stdexcept>

@@ -4,8 +4,8 @@
 // sets (repaired as the baker repaired them); then the normals the primitives lack.
 #include "asset_read.h"
 
-#include "gltf_read.h"
-#include "skin_repair.h"
+#include "skelform/core/gltf_read.h"
+#include "skelform/core/skin_repair.h"
 
 #include <glm/geometric.hpp>
 

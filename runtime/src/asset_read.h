@@ -7,7 +7,7 @@
 
 #include "asset.h"
 #include "asset_load.h"
-#include "extension_layout.h"
+#include "skelform/core/extension_layout.h"
 
 #include <tiny_gltf.h>
 

@@ -4,7 +4,7 @@
 // derives from them once (skelform weight, rigid control vertices, joint usage).
 #include "asset_read.h"
 
-#include "skelform_weight.h"
+#include "skelform/core/skelform_weight.h"
 
 #include <algorithm>
 #include <cstdint>

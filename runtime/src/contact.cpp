@@ -1,7 +1,7 @@
 // The contact pass (contact.h).
 #include "contact.h"
 
-#include "triangle_intersection.h"
+#include "skelform/core/triangle_intersection.h"
 
 #include <glm/geometric.hpp>
 

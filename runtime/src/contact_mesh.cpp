@@ -3,7 +3,7 @@
 // hierarchy and the pairs that intersect as modelled. Built once per deformable at load.
 #include "contact.h"
 
-#include "triangle_intersection.h"
+#include "skelform/core/triangle_intersection.h"
 
 #include <glm/geometric.hpp>
 

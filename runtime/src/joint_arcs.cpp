@@ -2,7 +2,7 @@
 #include "joint_arcs.h"
 
 #include "asset.h"
-#include "gltf_read.h"
+#include "skelform/core/gltf_read.h"
 
 #include <tiny_gltf.h>
 

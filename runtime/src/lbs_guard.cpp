@@ -4,7 +4,7 @@
 #include "instance.h"
 #include "skin_blend.h"
 #include "triangle_bvh.h"
-#include "triangle_intersection.h"
+#include "skelform/core/triangle_intersection.h"
 
 #include <glm/common.hpp>
 

@@ -10,7 +10,7 @@
 // Both add the bake's own residual of eq. (1), e_i = M_i − S_i − d_i·N_i (float rounding of
 // S = M − d·N, about 1e-7 of d), so the rest pose gives back the stored control mesh
 // exactly instead of up to that rounding: algebraically M = S' + d·N as in the paper.
-#include "dss_frame.h"
+#include "skelform/core/dss_frame.h"
 #include "instance.h"
 
 #include <cmath>

@@ -12,7 +12,7 @@
 #pragma once
 
 #include "asset.h"
-#include "dss_frame.h"
+#include "skelform/core/dss_frame.h"
 
 #include <glm/vec3.hpp>
 

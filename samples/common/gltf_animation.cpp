@@ -5,7 +5,7 @@
 
 #include "cli.h"
 
-#include "gltf_read.h"  // the runtime's validated accessor reader (internal, linked from skelform::runtime)
+#include "skelform/core/gltf_read.h"  // the runtime's validated accessor reader (internal, linked from skelform::runtime)
 
 #include <tiny_gltf.h>  // the TinyGLTF::TinyGLTF shared library: no TINYGLTF_IMPLEMENTATION here
 
@@ -69,7 +69,7 @@ bool all_finite(const double* values, size_t count) {
   return true;
 }
 
-// Accessor data through the runtime's validated reader (runtime/src/gltf_read.h, which the
+// Accessor data through the runtime's validated reader (core/include/skelform/core/gltf_read.h, which the
 // asset loader and the baker use too: bounds, strides, sparse data, normalized integers,
 // finiteness), its errors turned into this helper's GltfError; and the helper's own checks.
 class AccessorReader {

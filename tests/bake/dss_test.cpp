@@ -1,4 +1,4 @@
-// DSS binding (bake/src/dss.cpp) and its shared evaluation (runtime/src/dss_frame.h): a
+// DSS binding (bake/src/dss.cpp) and its shared evaluation (core/include/skelform/core/dss_frame.h): a
 // bumpy dense sphere bound to a subdivided coarse one is reproduced at rest within 1e-5 of
 // the diagonal when evaluated the runtime's way, seam copies bind identically, vertices the
 // normal field cannot reach still reproduce through the residual, and the frame never
@@ -10,7 +10,7 @@
 #include "skelform/bake/subdivision.h"
 #include "skelform/bake/weld.h"
 
-#include "../../runtime/src/dss_frame.h"
+#include "skelform/core/dss_frame.h"
 #include "test_support.h"
 
 #include <doctest/doctest.h>

@@ -4,7 +4,7 @@
 // by the Khronos glTF-Validator (CTest test gltf_validator_baked).
 #include "skelform/bake/gltf_writer.h"
 
-#include "extension_layout.h"
+#include "skelform/core/extension_layout.h"
 #include "skelform/bake/glb.h"
 #include "skelform/bake/mesh.h"
 #include "test_support.h"

@@ -3,7 +3,7 @@
 // non-manifold control meshes, and the level choice.
 #include "skelform/bake/procedural.h"
 #include "skelform/bake/subdivision.h"
-#include "dss_frame.h"
+#include "skelform/core/dss_frame.h"
 
 #include <doctest/doctest.h>
 

@@ -4,7 +4,7 @@
 // every kind of corruption of a baked file gives its own sf_result and a message, never a
 // crash; a caller's allocator is used for everything the asset owns and balances.
 #include "asset.h"
-#include "dss_frame.h"
+#include "skelform/core/dss_frame.h"
 #include "refine.h"
 #include "skelform/bake/bake.h"
 #include "skelform/bake/gltf_writer.h"

@@ -7,7 +7,7 @@
 #include "contact.h"
 #include "instance.h"
 #include "lbs_guard.h"
-#include "triangle_intersection.h"
+#include "skelform/core/triangle_intersection.h"
 
 #include <doctest/doctest.h>
 #include <glm/geometric.hpp>

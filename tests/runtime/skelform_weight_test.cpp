@@ -1,16 +1,16 @@
-// runtime/src/skelform_weight.h and the extension's blend.skelformWeight (version 2.2): the
+// core/include/skelform/core/skelform_weight.h and the extension's blend.skelformWeight (version 2.2): the
 // rule's values, the baker storing what the runtime would derive, and an artist's
 // _SKELFORM_WEIGHT attribute overriding it: 0 keeps a vertex on LBS bit for bit, out-of-range
 // values are refused by the baker and the runtime alike.
 #include "capsule_glb.h"
-#include "extension_layout.h"
+#include "skelform/core/extension_layout.h"
 #include "glb_edit.h"
 #include "runtime/runtime_models.h"
 #include "skelform/bake/bake.h"
 #include "skelform/bake/gltf_writer.h"
 #include "skelform/bake/input.h"
 #include "skelform/skelform.h"
-#include "skelform_weight.h"
+#include "skelform/core/skelform_weight.h"
 
 #include <doctest/doctest.h>
 #include <glm/gtc/quaternion.hpp>

@@ -1,4 +1,4 @@
-// runtime/src/skin_repair.h: the exporter defects the baker and the runtime repair alike
+// core/include/skelform/core/skin_repair.h: the exporter defects the baker and the runtime repair alike
 // (docs/SKELFORM_skeletal_deformation.md "Skin defects"), on hand-made skins and end to end on a
 // file with Blender's NaN weights: the baker warns naming the accessor and the elements, the
 // runtime loads the baked file and skins the repaired vertices like their neighbours.
@@ -9,7 +9,7 @@
 #include "skelform/bake/gltf_writer.h"
 #include "skelform/bake/input.h"
 #include "skelform/skelform.h"
-#include "skin_repair.h"
+#include "skelform/core/skin_repair.h"
 
 #include <doctest/doctest.h>
 #include <glm/gtc/quaternion.hpp>

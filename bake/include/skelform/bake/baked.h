@@ -1,6 +1,6 @@
 // Everything the baker precomputes for one deformable (one skinned mesh, all its triangle
 // primitives welded together), ready to be stored as the SKELFORM_skeletal_deformation
-// extension. Field meanings follow runtime/src/extension_layout.h, the format's one definition.
+// extension. Field meanings follow core/include/skelform/core/extension_layout.h, the format's one definition.
 #pragma once
 
 #include <glm/vec2.hpp>
@@ -43,7 +43,7 @@ struct BakedDeformable {
   std::vector<float> binding_displacement;
   std::vector<glm::vec2> binding_residual;
 
-  // The skelform weight of every original vertex (runtime/src/skelform_weight.h, or the
+  // The skelform weight of every original vertex (core/include/skelform/core/skelform_weight.h, or the
   // artist's _SKELFORM_WEIGHT). Empty when skin == -1.
   std::vector<float> skelform_weight;
 };

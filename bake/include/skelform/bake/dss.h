@@ -2,7 +2,7 @@
 // Lee et al. 2000): every original dense vertex becomes a point on the level-k Loop-refined
 // control mesh plus a scalar displacement along the smooth normal field, with a small
 // tangential residual where the normal field alone cannot reach it. Evaluated through
-// runtime/src/dss_frame.h, at rest it reproduces the original vertex to float precision.
+// core/include/skelform/core/dss_frame.h, at rest it reproduces the original vertex to float precision.
 #pragma once
 
 #include "skelform/bake/mesh.h"
@@ -17,7 +17,7 @@
 namespace skelform::bake {
 
 // One entry per dense vertex, in the order of the dense positions given to the binder; the
-// layout of the extension's "binding" group (runtime/src/extension_layout.h).
+// layout of the extension's "binding" group (core/include/skelform/core/extension_layout.h).
 struct DssBinding {
   std::vector<uint32_t> triangle;      // refined triangle the vertex is bound to
   std::vector<glm::vec2> barycentric;  // (b1, b2) in that triangle, b0 = 1 - b1 - b2, all in [0, 1]

@@ -1,5 +1,5 @@
 // Validated reading of glTF 2.0 data through tinygltf, for the mesh loader and the glTF
-// baker. A thin layer over the runtime's reader (runtime/src/gltf_read.h), so the baker and
+// baker. A thin layer over the runtime's reader (core/include/skelform/core/gltf_read.h), so the baker and
 // the runtime check every accessor the same way; this layer only turns its errors into
 // skelform::bake::Error of the same kind and message.
 //
@@ -69,7 +69,7 @@ std::vector<glm::uvec4> read_joints(const tinygltf::Model& model, int accessor, 
 
 // WEIGHTS_n: VEC4 FLOAT, or normalized UNSIGNED_BYTE / UNSIGNED_SHORT mapped to [0, 1].
 // No finite weight negative. Non-finite weights are returned as they are, and the sum is not
-// checked: the caller repairs both (runtime/src/skin_repair.h).
+// checked: the caller repairs both (core/include/skelform/core/skin_repair.h).
 std::vector<glm::dvec4> read_weights(const tinygltf::Model& model, int accessor, const std::string& what);
 
 // A per-vertex weight in [0, 1] (the _SKELFORM_WEIGHT attribute): SCALAR FLOAT, or normalized

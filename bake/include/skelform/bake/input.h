@@ -45,7 +45,7 @@ struct InputMesh {
   // The artist's skelform weight (the _SKELFORM_WEIGHT attribute, extension_layout.h) of
   // each original vertex, -1 where its primitive has none; empty when no primitive has it.
   std::vector<float> skelform_weight_override;
-  // Exporter defects the loader repaired (runtime/src/skin_repair.h), one line each, naming
+  // Exporter defects the loader repaired (core/include/skelform/core/skin_repair.h), one line each, naming
   // the file, primitive, accessors and elements: the CLI prints them as warnings.
   std::vector<std::string> warnings;
 };

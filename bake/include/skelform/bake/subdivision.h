@@ -15,8 +15,8 @@
 namespace skelform::bake {
 
 // Loop stencils from the control vertices straight to level `level` (no intermediate
-// levels), in the layout of the extension's "subdivision" group (runtime/src/
-// extension_layout.h): refined vertex v = sum over s in [offsets[v], offsets[v+1]) of
+// levels), in the layout of the extension's "subdivision" group
+// (core/include/skelform/core/extension_layout.h): refined vertex v = sum over s in [offsets[v], offsets[v+1]) of
 // weights[s] * control[indices[s]].
 struct SubdivisionStencils {
   uint32_t level = 0;                       // uniform refinement level k (0 = the control mesh)

@@ -1,7 +1,7 @@
 // Validated glTF accessor reading (gltf_read.h): every accessor, bufferView and buffer range
 // is checked before it is read, a lying count cannot exhaust memory, and sparse accessors
 // are applied with their indices checked.
-#include "gltf_read.h"
+#include "skelform/core/gltf_read.h"
 
 #include <tiny_gltf.h>
 

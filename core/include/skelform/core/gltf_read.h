@@ -1,6 +1,7 @@
 // Validated reading of glTF 2.0 data through tinygltf: the runtime's asset loader and the
 // baker (bake/include/skelform/bake/gltf_access.h, a thin layer over this) check every
-// accessor the same way. Internal to the runtime; never seen through the C API.
+// accessor the same way. Part of skelform's core (core/CMakeLists.txt): compiled into the
+// runtime with hidden symbols, never seen through the C API.
 //
 // tinygltf parses the JSON and resolves buffers but does not check that accessors fit their
 // bufferViews, that bufferViews fit their buffers, that component types match their
@@ -125,7 +126,7 @@ std::vector<glm::uvec4> read_joints(const tinygltf::Model& model, int accessor, 
 
 // WEIGHTS_n: VEC4 FLOAT, or normalized UNSIGNED_BYTE / UNSIGNED_SHORT mapped to [0, 1].
 // No finite weight negative. Non-finite weights are returned as they are, and the sum is not
-// checked: the caller repairs both (runtime/src/skin_repair.h).
+// checked: the caller repairs both (core/include/skelform/core/skin_repair.h).
 std::vector<glm::dvec4> read_weights(const tinygltf::Model& model, int accessor, const std::string& what);
 
 // A per-vertex weight in [0, 1] (the _SKELFORM_WEIGHT attribute): SCALAR FLOAT, or normalized

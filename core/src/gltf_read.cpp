@@ -1,6 +1,6 @@
 // Validated glTF reading (gltf_read.h). tinygltf 2.7 leaves most range checks to its caller,
 // so nothing here indexes a tinygltf vector or a buffer before checking it.
-#include "gltf_read.h"
+#include "skelform/core/gltf_read.h"
 
 #include <tiny_gltf.h>
 

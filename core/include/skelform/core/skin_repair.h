@@ -1,6 +1,7 @@
 // Exporter defects in a glTF skin, repaired the same way by the baker (bake/src/input_gltf.cpp,
-// which reports them as warnings) and the runtime loader (asset_primitives.cpp), so the two agree on
-// every vertex's skin. The rules (docs/SKELFORM_skeletal_deformation.md "Skin defects"):
+// which reports them as warnings) and the runtime loader (runtime/src/asset_primitives.cpp),
+// so the two agree on every vertex's skin. The rules (docs/SKELFORM_skeletal_deformation.md
+// "Skin defects"):
 //  - a non-finite weight (Blender writes NaN for a vertex in no vertex group: 0/0) is 0;
 //  - a vertex left with no weight at all takes the skin of the nearest vertex of its primitive
 //    (by rest position) that has one: the skin it would have been painted with; a primitive

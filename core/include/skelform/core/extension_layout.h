@@ -86,7 +86,7 @@ inline constexpr ArraySpec kJointSet = {"control", "joints", Component::unsigned
                                         1};
 inline constexpr ArraySpec kWeightSet = {"control", "weights", Component::float32, 4, CountOf::control_vertices, 1};
 
-// The skelform weight of every dense vertex (runtime/src/skelform_weight.h), in [0, 1]:
+// The skelform weight of every dense vertex (core/include/skelform/core/skelform_weight.h), in [0, 1]:
 // the output is LBS + weight·(skelform − LBS). Optional (version 2.2); the reader derives it
 // from the skin when it is absent.
 inline constexpr ArraySpec kSkelformWeight = {"blend", "skelformWeight",        Component::float32,
