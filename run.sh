@@ -10,7 +10,8 @@
 #   ./run.sh MODEL           the same main job on your own skinned glTF (.glb/.gltf) into
 #                            out/MODEL.anim.glb; .obj/.ply/.off: the skeletal mesh only
 #   ./run.sh test            install missing packages, check the sources' format
-#                            (tools/format.sh), build, run the whole test suite,
+#                            (tools/format.sh), build, run the whole test suite, the
+#                            runtime's own tests in a build without the baker,
 #                            then again under AddressSanitizer + UndefinedBehaviorSanitizer,
 #                            and the multi-threaded instance test under ThreadSanitizer
 #                            (with the web viewer's browser test in headless chromium), again
@@ -92,6 +93,12 @@ run_tests() {
   build "$root/build" -DCMAKE_BUILD_TYPE=Release
   echo "==> tests (Release)"
   ctest --test-dir "$root/build" --output-on-failure -j "$jobs"
+  # The runtime alone, as a port without the baker's dependencies builds it: its tests that
+  # need no baking, on the committed baked capsule (tests/data/README.md).
+  build "$root/build-runtime" -DCMAKE_BUILD_TYPE=Release -DSKELFORM_BUILD_BAKE=OFF \
+        -DSKELFORM_BUILD_SAMPLES=OFF -DSKELFORM_BUILD_BENCH=OFF
+  echo "==> tests (runtime alone, SKELFORM_BUILD_BAKE=OFF)"
+  ctest --test-dir "$root/build-runtime" --output-on-failure -j "$jobs"
   build "$root/build-asan" -DCMAKE_BUILD_TYPE=RelWithDebInfo -DSKELFORM_SANITIZE=address,undefined \
         -DSKELFORM_BUILD_BENCH=OFF
   echo "==> tests (AddressSanitizer + UndefinedBehaviorSanitizer)"

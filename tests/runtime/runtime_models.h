@@ -8,13 +8,20 @@
 //   sphere primitive without normals or tangents; always available.
 // - sample_model(name): a model of ../shared/data, or nullptr when absent.
 // Each is baked once per process and kept (immutable assets are shareable).
+//
+// Without the baker (SKELFORM_TEST_WITH_BAKER 0: a runtime-only build), capsule_model() is the
+// same capsule baked ahead of time, tests/data/capsule.skf.glb (tests/data/README.md), whose
+// original data is read from that file (a baked glTF keeps its input's accessors), and
+// sample_model() skips.
 #pragma once
 
-#include "capsule_glb.h"
-#include "skelform/bake/bake.h"
-#include "skelform/bake/gltf_writer.h"
-#include "skelform/bake/input.h"
-#include "skelform/bake/procedural.h"
+#if SKELFORM_TEST_WITH_BAKER
+#  include "capsule_glb.h"
+#  include "skelform/bake/bake.h"
+#  include "skelform/bake/gltf_writer.h"
+#  include "skelform/bake/input.h"
+#  include "skelform/bake/procedural.h"
+#endif
 #include "skelform/skelform.h"
 #include "test_support.h"
 
@@ -108,15 +115,12 @@ inline std::string read_file(const std::filesystem::path& path) {
   return s.str();
 }
 
-// Bakes `bytes` (a .glb or .gltf), loads the result, reads the original data of deformable 0.
-inline std::unique_ptr<RuntimeModel> bake_and_load(const std::string& name, const std::string& bytes,
-                                                   const std::string& extension, const std::string& base_dir) {
+// Loads `baked_glb`, reads the original data of deformable 0 from `bytes` (the input glTF).
+inline std::unique_ptr<RuntimeModel> load_baked(const std::string& name, std::string baked_glb,
+                                                const std::string& bytes, const std::string& base_dir) {
   auto result = std::make_unique<RuntimeModel>();
   result->name = name;
-  const std::vector<unsigned char> input_bytes(bytes.begin(), bytes.end());
-  const bake::InputMesh input = bake::load_mesh_from_memory(input_bytes, extension, base_dir + "/" + name);
-  const bake::BakeResult baked = bake::bake_model(input);
-  result->baked_glb = bake::baked_glb(bytes, base_dir, baked.deformables);
+  result->baked_glb = std::move(baked_glb);
   char message[512] = {};
   sf_load_options options{};
   options.error_message = message;
@@ -179,6 +183,25 @@ inline std::unique_ptr<RuntimeModel> bake_and_load(const std::string& name, cons
   return result;
 }
 
+#if SKELFORM_TEST_WITH_BAKER
+// Bakes `bytes` (a .glb or .gltf), loads the result, reads the original data of deformable 0.
+inline std::unique_ptr<RuntimeModel> bake_and_load(const std::string& name, const std::string& bytes,
+                                                   const std::string& extension, const std::string& base_dir) {
+  const std::vector<unsigned char> input_bytes(bytes.begin(), bytes.end());
+  const bake::InputMesh input = bake::load_mesh_from_memory(input_bytes, extension, base_dir + "/" + name);
+  const bake::BakeResult baked = bake::bake_model(input);
+  return load_baked(name, bake::baked_glb(bytes, base_dir, baked.deformables), bytes, base_dir);
+}
+#endif
+
+// The capsule baked ahead of time (tests/data/README.md), loaded; original data from the file.
+inline std::unique_ptr<RuntimeModel> load_capsule_fixture() {
+  const std::filesystem::path path = std::filesystem::path(SKELFORM_SOURCE_DIR) / "tests/data/capsule.skf.glb";
+  const std::string bytes = read_file(path);
+  REQUIRE_MESSAGE(!bytes.empty(), path.string() << " is missing or empty");
+  return load_baked("capsule.skf.glb", bytes, bytes, path.parent_path().string());
+}
+
 inline std::mutex& cache_mutex() {
   static std::mutex m;
   return m;
@@ -193,9 +216,15 @@ inline std::map<std::string, std::unique_ptr<RuntimeModel>>& cache() {
 inline const RuntimeModel& capsule_model() {
   std::lock_guard<std::mutex> lock(detail::cache_mutex());
   auto& slot = detail::cache()["capsule"];
+#if SKELFORM_TEST_WITH_BAKER
   if (!slot) slot = detail::bake_and_load("capsule.glb", capsule_glb(), ".glb", scratch_dir("runtime_models").string());
+#else
+  if (!slot) slot = detail::load_capsule_fixture();
+#endif
   return *slot;
 }
+
+#if SKELFORM_TEST_WITH_BAKER
 
 // The fairing issue's capsule (tests/runtime/fair_test.cpp): radius 0.2, z in [-1, 1], the
 // root joint at its end, the child joint at z = 0, weights blending over z in [-0.1, 0.1].
@@ -218,6 +247,8 @@ inline const RuntimeModel& bent_capsule_model() {
   return *slot;
 }
 
+#endif
+
 // The skinned sample models of ../shared/data, by folder name.
 inline const std::vector<std::string>& sample_names() {
   static const std::vector<std::string> names = {"CesiumMan/CesiumMan.glb", "Fox/Fox.glb",
@@ -228,6 +259,7 @@ inline const std::vector<std::string>& sample_names() {
 
 // A baked sample, or nullptr (with a MESSAGE) when the data is absent.
 inline const RuntimeModel* sample_model(const std::string& relative) {
+#if SKELFORM_TEST_WITH_BAKER
   const std::filesystem::path path = data_file(relative);
   if (path.empty()) {
     MESSAGE("skipped: " << relative << " not found under " << data_dir() << " (set SKELFORM_DATA_DIR)");
@@ -239,6 +271,10 @@ inline const RuntimeModel* sample_model(const std::string& relative) {
     slot = detail::bake_and_load(path.filename().string(), detail::read_file(path), path.extension().string(),
                                  path.parent_path().string());
   return slot.get();
+#else
+  MESSAGE("skipped: " << relative << " needs the baker (SKELFORM_BUILD_BAKE=OFF)");
+  return nullptr;
+#endif
 }
 
 // Skinning matrices that bend joint `joint` (and its descendants) by `angle` radians about
