@@ -14,6 +14,7 @@
 #include "skelform/bake/topology.h"
 
 #include <glm/geometric.hpp>
+#include <glm/gtc/constants.hpp>
 #include <glm/gtc/matrix_transform.hpp>
 #include <glm/gtc/type_ptr.hpp>
 #include <nlohmann/json.hpp>
@@ -25,8 +26,7 @@
 namespace skelform::bake {
 namespace {
 
-constexpr double kPi = 3.14159265358979323846;
-constexpr double kDegree = kPi / 180.0;
+constexpr double kDegree = glm::pi<double>() / 180.0;
 // Blend width of the weights, in units of the nearest capsule's radius.
 constexpr double kFalloffRadii = 0.6;
 // Facing factor: a bone whose direction to the vertex makes cos <= kFacingZero with the
@@ -99,7 +99,7 @@ struct RigJoints {
 RigPose walk_pose(const std::vector<CharacterJoint>& joints, const RigJoints& rig, double t) {
   RigPose pose;
   pose.rotations.assign(joints.size(), glm::dquat(1.0, 0.0, 0.0, 0.0));
-  const double phase = 2.0 * kPi * t;  // one cycle per second
+  const double phase = 2.0 * glm::pi<double>() * t;  // one cycle per second
   const double s = std::sin(phase), c = std::cos(phase);
   pose.rotations[size_t(rig.pelvis)] = about(5.0 * s, kY);
   pose.rotations[size_t(rig.spine)] = about(3.0, kX) * about(-7.0 * s, kY);
@@ -124,7 +124,7 @@ RigPose bend_pose(const std::vector<CharacterJoint>& joints, const RigJoints& ri
   RigPose pose;
   pose.rotations.assign(joints.size(), glm::dquat(1.0, 0.0, 0.0, 0.0));
   const double envelope = smoothstep(0.0, 0.8, t) * (1.0 - smoothstep(2.2, 3.0, t));
-  const double twist = 50.0 * std::sin(2.0 * kPi * t / 3.0) * envelope;  // left, then right
+  const double twist = 50.0 * std::sin(2.0 * glm::pi<double>() * t / 3.0) * envelope;  // left, then right
   pose.rotations[size_t(rig.spine)] = about(20.0 * envelope, kX) * about(0.5 * twist, kY);
   pose.rotations[size_t(rig.chest)] = about(10.0 * envelope, kX) * about(0.5 * twist, kY);
   for (int side = 0; side < 2; ++side) {

@@ -2,6 +2,7 @@
 #include "skelform/bake/procedural.h"
 
 #include <glm/geometric.hpp>
+#include <glm/gtc/constants.hpp>
 
 #include <cmath>
 #include <algorithm>
@@ -10,8 +11,6 @@
 
 namespace skelform::bake {
 namespace {
-
-constexpr double kPi = 3.14159265358979323846;
 
 // Rings of `segments` vertices stacked along z, closed by one vertex at each end. Each ring
 // is given by (z, ring radius); the caps' pole vertices are at z_bottom and z_top.
@@ -22,7 +21,7 @@ TriangleMesh revolve_rings(const std::vector<std::pair<double, double>>& rings, 
   mesh.positions.push_back({0.0, 0.0, z_bottom});
   for (const auto& [z, r] : rings) {
     for (uint32_t s = 0; s < n; ++s) {
-      const double a = 2.0 * kPi * s / n;
+      const double a = 2.0 * glm::pi<double>() * s / n;
       mesh.positions.push_back({r * std::cos(a), r * std::sin(a), z});
     }
   }
@@ -53,13 +52,13 @@ TriangleMesh make_capsule(double radius, double cylinder_length, int segments, i
   const double half = 0.5 * cylinder_length;
   std::vector<std::pair<double, double>> rings;
   for (int i = 1; i <= cap_rings; ++i) {  // bottom cap, pole excluded, equator included
-    const double phi = 0.5 * kPi * (1.0 - double(i) / cap_rings);
+    const double phi = 0.5 * glm::pi<double>() * (1.0 - double(i) / cap_rings);
     rings.push_back({-half - radius * std::sin(phi), radius * std::cos(phi)});
   }
   for (int i = 1; i <= cylinder_rings; ++i)
     rings.push_back({-half + cylinder_length * double(i) / cylinder_rings, radius});
   for (int i = 1; i < cap_rings; ++i) {  // top cap, equator already placed, pole excluded
-    const double phi = 0.5 * kPi * double(i) / cap_rings;
+    const double phi = 0.5 * glm::pi<double>() * double(i) / cap_rings;
     rings.push_back({half + radius * std::sin(phi), radius * std::cos(phi)});
   }
   return revolve_rings(rings, -half - radius, half + radius, segments);
@@ -69,7 +68,7 @@ TriangleMesh make_uv_sphere(double radius, int slices, int stacks) {
   if (radius <= 0 || slices < 3 || stacks < 2) throw Error(ErrorKind::usage, "make_uv_sphere: invalid parameters");
   std::vector<std::pair<double, double>> rings;
   for (int i = 1; i < stacks; ++i) {
-    const double theta = kPi * double(i) / stacks;  // from the south pole
+    const double theta = glm::pi<double>() * double(i) / stacks;  // from the south pole
     rings.push_back({-radius * std::cos(theta), radius * std::sin(theta)});
   }
   return revolve_rings(rings, -radius, radius, slices);

@@ -6,8 +6,9 @@
 #include "triangle_hierarchy.h"
 
 #include <glm/geometric.hpp>
-#include <glm/matrix.hpp>
+#include <glm/gtc/constants.hpp>
 #include <glm/mat3x3.hpp>
+#include <glm/matrix.hpp>
 
 #include <algorithm>
 #include <array>
@@ -16,8 +17,6 @@
 
 namespace skelform::bake {
 namespace {
-
-constexpr double kPi = 3.14159265358979323846;
 
 // Signed solid angle of triangle (a, b, c) seen from the origin (the vectors are corner −
 // query), by the formula of Van Oosterom and Strackee (1983):
@@ -204,7 +203,7 @@ std::vector<double> winding_numbers(const TriangleMesh& mesh, const std::vector<
       total_solid_angle +=
           signed_solid_angle(mesh.positions[t[0]] - query, mesh.positions[t[1]] - query, mesh.positions[t[2]] - query);
     }
-    winding[q] = total_solid_angle / (4.0 * kPi);
+    winding[q] = total_solid_angle / (4.0 * glm::pi<double>());
   }
   return winding;
 }
@@ -214,7 +213,7 @@ std::vector<double> fast_winding_numbers(const TriangleMesh& mesh, const std::ve
   if (queries.empty()) return winding;
   const WindingTree tree(mesh);
   parallel_ranges(queries.size(), [&](size_t begin, size_t end) {
-    for (size_t q = begin; q < end; ++q) winding[q] = tree.solid_angle(queries[q]) / (4.0 * kPi);
+    for (size_t q = begin; q < end; ++q) winding[q] = tree.solid_angle(queries[q]) / (4.0 * glm::pi<double>());
   });
   return winding;
 }

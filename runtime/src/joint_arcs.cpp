@@ -7,6 +7,7 @@
 #include <tiny_gltf.h>
 
 #include <glm/geometric.hpp>
+#include <glm/gtc/constants.hpp>
 #include <glm/gtc/quaternion.hpp>
 #include <glm/mat3x3.hpp>
 
@@ -19,7 +20,6 @@
 namespace skelform::runtime {
 namespace {
 
-constexpr float kPi = 3.14159265358979f;
 constexpr float kPinch = 0.95f;  // the bulged limb's radius stays within this part of the arc's
 constexpr float kFit = 0.9f;     // the fillet's tangent points stay within this part of the zone
 // The arc replaces the linear blend from 0.75 to 1.25 of the joint's fold bend (the bend or
@@ -28,7 +28,7 @@ constexpr float kFit = 0.9f;     // the fillet's tangent points stay within this
 // inner side whatever the blend's width (a wide blend's fold bend can reach 160-240 degrees,
 // and the arcs would never come in; the cap's trade-off is in docs/tuning.md).
 constexpr float kArcOnset = 0.75f, kArcFull = 1.25f;
-constexpr float kLargestFoldBend = kPi / 3.0f;
+constexpr float kLargestFoldBend = glm::pi<float>() / 3.0f;
 constexpr double kBlendedWeight = 0.1;    // both of a pair above this: a vertex of the joint's blend
 constexpr double kLongestRestBend = 0.5;  // cos 60°: straighter joints only
 constexpr double kSharedBone = 0.45;      // a zone's cap on a bone with a joint at each end
@@ -135,7 +135,7 @@ ArcMap arc_map(const ArcJoint& joint, const ArcPose& pose, float axial) {
   }
   ArcMap map;
   if (z > -F && z < F) {
-    const float c = std::cos(0.5f * kPi * z / F);
+    const float c = std::cos(0.5f * glm::pi<float>() * z / F);
     map.scale = 1.0f + pose.bulge * c * c;
   }
   // The twist (and any translation in the joint) spreads over the whole zone: over the skin's

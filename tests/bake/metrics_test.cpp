@@ -4,6 +4,7 @@
 
 #include <doctest/doctest.h>
 #include <glm/geometric.hpp>
+#include <glm/gtc/constants.hpp>
 
 #include <algorithm>
 #include <cmath>
@@ -13,8 +14,6 @@
 using namespace skelform::bake;
 
 namespace {
-
-constexpr double kPi = 3.14159265358979323846;
 
 // Brute-force distance from p to triangle (a, b, c): the minimum of the distance to the plane
 // (when the projection falls inside, tested by barycentric signs) and to the three edges.
@@ -157,7 +156,7 @@ TEST_CASE("metrics: enclosed volume of an icosphere lies between its inscribed a
       const Vec3 unit = glm::normalize(glm::cross(sphere.positions[t[1]] - a, sphere.positions[t[2]] - a));
       inner_radius = std::min(inner_radius, glm::dot(a, unit));
     }
-    const double ball = 4.0 / 3.0 * kPi;
+    const double ball = 4.0 / 3.0 * glm::pi<double>();
     CHECK(volume < ball * radius * radius * radius);
     CHECK(volume > ball * inner_radius * inner_radius * inner_radius);
     if (subdivisions == 4) CHECK(volume == doctest::Approx(ball * radius * radius * radius).epsilon(5e-3));

@@ -6,6 +6,7 @@
 #include "test_support.h"
 
 #include <glm/geometric.hpp>
+#include <glm/gtc/constants.hpp>
 
 #include <algorithm>
 #include <cmath>
@@ -51,7 +52,7 @@ double bend_degrees(const std::vector<glm::dmat4>& world, int parent, int child)
     const Vec3 rest = joints[size_t(j)].tail - joints[size_t(j)].head;
     return glm::normalize(Vec3(world[size_t(j)] * glm::dvec4(rest, 0.0)));
   };
-  return std::acos(std::clamp(glm::dot(direction(parent), direction(child)), -1.0, 1.0)) * 180.0 / 3.14159265358979;
+  return std::acos(std::clamp(glm::dot(direction(parent), direction(child)), -1.0, 1.0)) * 180.0 / glm::pi<double>();
 }
 
 const RigPose& pose_at(const RigAnimation& animation, double t) {
@@ -192,7 +193,7 @@ TEST_CASE("procedural rig: the animations reach their defining poses and keep th
   for (const RigPose& pose : bend.poses) {
     const auto world = joint_world_transforms(c.joints, pose);
     const Vec3 x_axis(world[size_t(joint_index("chest"))][0]);
-    const double yaw = std::atan2(-x_axis.z, x_axis.x) * 180.0 / 3.14159265358979;
+    const double yaw = std::atan2(-x_axis.z, x_axis.x) * 180.0 / glm::pi<double>();
     most_left = std::max(most_left, yaw);
     most_right = std::min(most_right, yaw);
   }

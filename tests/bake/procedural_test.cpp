@@ -6,6 +6,8 @@
 #include "mesh_checks.h"
 #include "test_support.h"
 
+#include <glm/gtc/constants.hpp>
+
 #include <doctest/doctest.h>
 
 #include <algorithm>
@@ -21,8 +23,6 @@ using skelform::test::analyze_mesh;
 using skelform::test::MeshReport;
 
 namespace {
-
-constexpr double kPi = 3.14159265358979323846;
 
 // The properties every closed genus-0 test mesh must have.
 MeshReport check_closed_sphere_like(const TriangleMesh& mesh) {
@@ -141,8 +141,8 @@ TEST_CASE("procedural shapes: closed, outward, genus 0, expected sizes") {
       const TriangleMesh mesh = skelform::bake::make_icosphere(2.0, level);
       CHECK(mesh.positions.size() == expected[level]);
       const MeshReport r = check_closed_sphere_like(mesh);
-      CHECK(r.volume < 4.0 / 3.0 * kPi * 8.0);  // inscribed polyhedron
-      if (level == 3) CHECK(r.volume > 0.97 * 4.0 / 3.0 * kPi * 8.0);
+      CHECK(r.volume < 4.0 / 3.0 * glm::pi<double>() * 8.0);  // inscribed polyhedron
+      if (level == 3) CHECK(r.volume > 0.97 * 4.0 / 3.0 * glm::pi<double>() * 8.0);
       for (const Vec3& p : mesh.positions) CHECK(std::abs(glm::length(p) - 2.0) < 1e-12);
     }
   }
@@ -150,15 +150,16 @@ TEST_CASE("procedural shapes: closed, outward, genus 0, expected sizes") {
     const TriangleMesh mesh = skelform::bake::make_uv_sphere(1.5, 24, 12);
     CHECK(mesh.positions.size() == size_t(2 + 24 * 11));
     const MeshReport r = check_closed_sphere_like(mesh);
-    CHECK(r.volume < 4.0 / 3.0 * kPi * 1.5 * 1.5 * 1.5);
-    CHECK(r.volume > 0.95 * 4.0 / 3.0 * kPi * 1.5 * 1.5 * 1.5);
+    CHECK(r.volume < 4.0 / 3.0 * glm::pi<double>() * 1.5 * 1.5 * 1.5);
+    CHECK(r.volume > 0.95 * 4.0 / 3.0 * glm::pi<double>() * 1.5 * 1.5 * 1.5);
   }
   SUBCASE("capsule") {
     const double radius = 0.5, length = 2.0;
     const TriangleMesh mesh = skelform::bake::make_capsule(radius, length, 16, 4, 5);
     CHECK(mesh.positions.size() == size_t(2 + 16 * (5 + 4 + 5 - 1)));
     const MeshReport r = check_closed_sphere_like(mesh);
-    const double exact = kPi * radius * radius * length + 4.0 / 3.0 * kPi * radius * radius * radius;
+    const double exact =
+        glm::pi<double>() * radius * radius * length + 4.0 / 3.0 * glm::pi<double>() * radius * radius * radius;
     CHECK(r.volume < exact);
     CHECK(r.volume > 0.9 * exact);
     const auto box = skelform::bake::bounds_of(mesh.positions);
@@ -277,7 +278,7 @@ TEST_CASE("test character: rig description") {
   // A-pose: the upper arm points 30 to 45 degrees below the horizontal.
   const CharacterJoint& arm = find("upper_arm.L");
   const Vec3 d = glm::normalize(arm.tail - arm.head);
-  const double below = std::asin(-d.y) * 180.0 / kPi;
+  const double below = std::asin(-d.y) * 180.0 / glm::pi<double>();
   CHECK(below >= 30.0);
   CHECK(below <= 45.0);
 

@@ -5,6 +5,7 @@
 
 #include <doctest/doctest.h>
 #include <glm/geometric.hpp>
+#include <glm/gtc/constants.hpp>
 
 #include <chrono>
 #include <cmath>
@@ -81,7 +82,7 @@ TEST_CASE("self_intersection: closed shapes have none - a mesh folded through it
   // Fold a long capsule: rotate its upper half by 170° about the x axis at z = 0: the halves
   // pass through each other.
   TriangleMesh folded = make_capsule(0.2, 1.6, 24, 32, 6);
-  const double angle = 170.0 * 3.14159265358979323846 / 180.0;
+  const double angle = 170.0 * glm::pi<double>() / 180.0;
   for (Vec3& p : folded.positions) {
     if (p.z <= 0.0) continue;
     const double y = p.y * std::cos(angle) - p.z * std::sin(angle);

@@ -8,6 +8,7 @@
 #include <doctest/doctest.h>
 
 #include <glm/geometric.hpp>
+#include <glm/gtc/constants.hpp>
 
 #include <algorithm>
 #include <cmath>
@@ -17,8 +18,6 @@
 using namespace skelform::bake;
 
 namespace {
-
-constexpr double kPi = 3.14159265358979323846;
 
 std::vector<glm::vec3> to_float(const std::vector<Vec3>& positions) {
   return std::vector<glm::vec3>(positions.begin(), positions.end());
@@ -42,7 +41,7 @@ TriangleMesh reference_loop_step(const TriangleMesh& mesh) {
   out.positions.resize(n);
   for (size_t v = 0; v < n; ++v) {
     const double valence = static_cast<double>(neighbours[v].size());
-    const double inner = 3.0 / 8.0 + 0.25 * std::cos(2.0 * kPi / valence);
+    const double inner = 3.0 / 8.0 + 0.25 * std::cos(2.0 * glm::pi<double>() / valence);
     const double beta = (5.0 / 8.0 - inner * inner) / valence;
     Vec3 sum(0.0);
     for (uint32_t w : neighbours[v]) sum += mesh.positions[w];
@@ -280,7 +279,7 @@ TEST_CASE("refined_normals: the control mesh's normal sums refined by the stenci
     for (size_t v = 0; v < refined.size(); ++v) {
       const double cosine =
           glm::dot(glm::normalize(Vec3(refined[v])), Vec3(normals[v])) / glm::length(Vec3(normals[v]));
-      worst_angle = std::max(worst_angle, std::acos(std::min(1.0, cosine)) * 180.0 / kPi);
+      worst_angle = std::max(worst_angle, std::acos(std::min(1.0, cosine)) * 180.0 / glm::pi<double>());
       worst_length = std::max(worst_length, std::fabs(glm::length(Vec3(normals[v])) - 1.0));
     }
     CHECK(worst_angle < 0.1);

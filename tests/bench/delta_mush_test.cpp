@@ -2,6 +2,8 @@
 // invariant under a rigid motion of the whole skeleton (smoothing and frames commute with it).
 #include "delta_mush.h"
 
+#include <glm/gtc/constants.hpp>
+
 #include <doctest/doctest.h>
 
 #include <cmath>
@@ -23,7 +25,7 @@ struct Tube {
 
 Tube make_tube(int rings = 8, int segments = 12) {
   Tube tube;
-  const double pi = 3.14159265358979323846;
+  const double pi = glm::pi<double>();
   auto add_vertex = [&](double x, double y, double z) {
     tube.positions.insert(tube.positions.end(), {float(x), float(y), float(z)});
     const float w = static_cast<float>(std::fmin(1.0, std::fmax(0.0, x / (rings - 1))));

@@ -9,6 +9,7 @@
 //   out-of-range fairing options, bad handle sets; no allocation in evaluate/write.
 #include "runtime/runtime_models.h"
 
+#include <glm/gtc/constants.hpp>
 #include <glm/gtc/quaternion.hpp>
 
 #include <atomic>
@@ -53,7 +54,7 @@ std::vector<Variant> variants() {
 // cannot resolve below ~0.02°, the very scale of the 0.1° tolerance).
 double angle_degrees(glm::vec3 a, glm::vec3 b) {
   const glm::dvec3 x(a), y(b);
-  return std::atan2(glm::length(glm::cross(x, y)), glm::dot(x, y)) * 180.0 / 3.14159265358979323846;
+  return std::atan2(glm::length(glm::cross(x, y)), glm::dot(x, y)) * 180.0 / glm::pi<double>();
 }
 
 struct RestError {

@@ -14,6 +14,7 @@
 
 #include <doctest/doctest.h>
 #include <glm/geometric.hpp>
+#include <glm/gtc/constants.hpp>
 #include <glm/gtc/quaternion.hpp>
 #include <glm/mat4x4.hpp>
 
@@ -33,8 +34,6 @@ using skelform::bake::TriangleMesh;
 using skelform::bake::Vec3;
 
 namespace {
-
-constexpr double kPi = 3.14159265358979323846;
 
 // φ(b) = |P − c(b)| − r(b) at barycentric (1 − u − v, u, v), in double.
 double hull_function(const glm::dvec3& p, const glm::vec3* c, const float* r, double u, double v) {
@@ -109,8 +108,8 @@ struct BentCapsule {
       const double t = std::clamp((rest.positions[v].z + blend / 2) / blend, 0.0, 1.0);
       weight.push_back(float(t * t * (3.0 - 2.0 * t)));
     }
-    rotation = glm::angleAxis(bend_degrees * kPi / 180.0, glm::dvec3(1, 0, 0)) *
-               glm::angleAxis(twist_degrees * kPi / 180.0, glm::dvec3(0, 0, 1));
+    rotation = glm::angleAxis(bend_degrees * glm::pi<double>() / 180.0, glm::dvec3(1, 0, 0)) *
+               glm::angleAxis(twist_degrees * glm::pi<double>() / 180.0, glm::dvec3(0, 0, 1));
   }
 
   glm::dquat blended_rotation(size_t v) const {
@@ -415,8 +414,9 @@ TEST_CASE(
     Measured measured;
   };
   auto evaluate = [&](double bend_degrees, uint32_t method) {
-    const glm::mat4 child = glm::mat4_cast(glm::angleAxis(float(bend_degrees * kPi / 180), glm::vec3(1, 0, 0)) *
-                                           glm::angleAxis(float(150 * kPi / 180), glm::vec3(0, 0, 1)));
+    const glm::mat4 child =
+        glm::mat4_cast(glm::angleAxis(float(bend_degrees * glm::pi<double>() / 180), glm::vec3(1, 0, 0)) *
+                       glm::angleAxis(float(150 * glm::pi<double>() / 180), glm::vec3(0, 0, 1)));
     const std::vector<glm::mat4> pose = {glm::mat4(1.0f), child};  // the joint is at the origin
     sf_instance* instance = nullptr;
     REQUIRE(sf_instance_create(model.asset, 0, &instance) == SF_OK);
@@ -623,7 +623,8 @@ TEST_CASE("fair_experiment" * doctest::skip(std::getenv("FAIR_EXPERIMENT") == nu
               const Vec3 c =
                   (scene.rest.positions[t[0]] + scene.rest.positions[t[1]] + scene.rest.positions[t[2]]) / 3.0;
               char buffer[64];
-              std::snprintf(buffer, sizeof buffer, "(z %.3f, angle %.0f)", c.z, std::atan2(c.y, c.x) * 180 / kPi);
+              std::snprintf(buffer, sizeof buffer, "(z %.3f, angle %.0f)", c.z,
+                            std::atan2(c.y, c.x) * 180 / glm::pi<double>());
               return std::string(buffer);
             };
             MESSAGE("  pair " << where(p) << " x " << where(q));

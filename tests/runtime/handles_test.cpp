@@ -15,6 +15,7 @@
 #include <Eigen/Dense>
 #include <Eigen/Sparse>
 #include <glm/geometric.hpp>
+#include <glm/gtc/constants.hpp>
 
 #include <algorithm>
 #include <chrono>
@@ -566,7 +567,7 @@ TEST_CASE("handles: Fig. 11 - an ellipsoid bent by handles has no self-intersect
   // pinned: the bottom (z < -0.5).
   std::vector<uint32_t> handles, pinned;
   std::vector<glm::vec3> targets;
-  const double angle = 90.0 * 3.14159265358979323846 / 180.0;
+  const double angle = 90.0 * glm::pi<double>() / 180.0;
   for (uint32_t v = 0; v < ellipsoid.positions.size(); ++v) {
     const skelform::bake::Vec3& p = ellipsoid.positions[v];
     if (p.z > 0.75) {

@@ -10,6 +10,7 @@
 
 #include <doctest/doctest.h>
 #include <glm/geometric.hpp>
+#include <glm/gtc/constants.hpp>
 #include <glm/gtc/matrix_transform.hpp>
 #include <glm/gtc/quaternion.hpp>
 
@@ -23,8 +24,6 @@ using skelform::runtime::ArcMap;
 using skelform::runtime::ArcPose;
 
 namespace {
-
-constexpr float kPi = 3.14159265358979f;
 
 ArcJoint capsule_joint(float scale = 1.0f) {
   ArcJoint joint;
@@ -73,14 +72,14 @@ TEST_CASE("joint arcs: at bind the map is the identity and the arc is off") {
 
 TEST_CASE("joint arcs: beyond the zone the parent's side stays and the child's moves with the child joint") {
   std::mt19937 random(7);
-  std::uniform_real_distribution<float> angle(-kPi, kPi), unit(-1.0f, 1.0f);
+  std::uniform_real_distribution<float> angle(-glm::pi<float>(), glm::pi<float>()), unit(-1.0f, 1.0f);
   const ArcJoint joint = capsule_joint();
   const glm::vec3 side = across(joint.axis);
   for (int round = 0; round < 200; ++round) {
     const glm::vec3 bend_axis =
         glm::normalize(glm::cross(joint.axis, glm::vec3(unit(random), unit(random), unit(random))));
-    const glm::quat rotation =
-        glm::angleAxis(0.5f * angle(random) + 0.5f * kPi, bend_axis) * glm::angleAxis(angle(random), joint.axis);
+    const glm::quat rotation = glm::angleAxis(0.5f * angle(random) + 0.5f * glm::pi<float>(), bend_axis) *
+                               glm::angleAxis(angle(random), joint.axis);
     const glm::mat4 child =
         glm::translate(glm::mat4(1.0f), 0.01f * glm::vec3(unit(random), unit(random), unit(random))) *
         turned_about(joint, rotation);
@@ -100,9 +99,10 @@ TEST_CASE(
   const glm::vec3 side = across(joint.axis);
   for (float degrees : {20.0f, 60.0f, 90.0f, 120.0f, 150.0f}) {
     const glm::vec3 bend_axis = glm::normalize(glm::cross(joint.axis, glm::vec3(0, 1, 0)));
-    const glm::quat rotation = glm::angleAxis(degrees * kPi / 180.0f, bend_axis) * glm::angleAxis(2.5f, joint.axis);
+    const glm::quat rotation =
+        glm::angleAxis(degrees * glm::pi<float>() / 180.0f, bend_axis) * glm::angleAxis(2.5f, joint.axis);
     const ArcPose pose = skelform::runtime::make_arc_pose(joint, glm::mat4(1.0f), turned_about(joint, rotation));
-    CHECK(pose.bend == doctest::Approx(degrees * kPi / 180.0f).epsilon(1e-4));
+    CHECK(pose.bend == doctest::Approx(degrees * glm::pi<float>() / 180.0f).epsilon(1e-4));
     CHECK(pose.twist == doctest::Approx(2.5f).epsilon(1e-4));
     const int steps = 600;  // (finer, the float positions' rounding shows in the turn)
     const float dz = 3.0f * joint.zone / steps;
@@ -153,7 +153,7 @@ TEST_CASE("joint arcs: scale-invariant and finite on degenerate poses") {
     CHECK(glm::length(q - 1000.0f * p) < 1e-3f * 1000.0f * 1e-2f);
   }
   // Bent right back (θ = π), a zero (singular) parent, a child with NaN-free but huge values.
-  const glm::mat4 back = turned_about(small, glm::angleAxis(kPi, across(small.axis)));
+  const glm::mat4 back = turned_about(small, glm::angleAxis(glm::pi<float>(), across(small.axis)));
   for (const auto& [parent, child] : {std::make_pair(glm::mat4(1.0f), back), std::make_pair(glm::mat4(0.0f), back),
                                       std::make_pair(glm::mat4(1.0f), glm::mat4(1e30f))}) {
     const ArcPose pose = skelform::runtime::make_arc_pose(small, parent, child);
@@ -246,7 +246,8 @@ TEST_CASE("joint arcs: the default skeleton skinning equals linear blending at a
   sf_eval_options arcs_options{}, linear_options{};
   linear_options.skeleton_skinning = SF_SKELETON_LBS;
   for (float degrees : {10.0f, 110.0f}) {
-    const std::vector<glm::mat4> pose = skelform::test::bend_pose(model, 1, degrees * kPi / 180.0f, glm::vec3(1, 0, 0));
+    const std::vector<glm::mat4> pose =
+        skelform::test::bend_pose(model, 1, degrees * glm::pi<float>() / 180.0f, glm::vec3(1, 0, 0));
     REQUIRE(sf_instance_set_joint_matrices(arcs, &pose[0][0][0], pose.size(), 0) == SF_OK);
     REQUIRE(sf_instance_set_joint_matrices(linear, &pose[0][0][0], pose.size(), 0) == SF_OK);
     REQUIRE(sf_instance_evaluate(arcs, &arcs_options) == SF_OK);

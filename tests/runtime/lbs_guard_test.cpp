@@ -10,6 +10,7 @@
 #include "skelform/bake/metrics.h"
 #include "skelform/bake/self_intersection.h"
 
+#include <glm/gtc/constants.hpp>
 #include <glm/gtc/matrix_transform.hpp>
 #include <glm/gtc/quaternion.hpp>
 
@@ -24,8 +25,6 @@ namespace {
 using skelform::bake::TriangleMesh;
 using skelform::bake::Vec3;
 using skelform::test::RuntimeModel;
-
-constexpr double kPi = 3.14159265358979323846;
 
 struct Instance : skelform::test::InstancePtr {
   using InstancePtr::InstancePtr;
@@ -62,8 +61,8 @@ bool single_influence(const skelform::test::OriginalPrimitive& p, size_t v) {
 }
 
 glm::mat4 bend_twist(double bend_degrees, double twist_degrees) {
-  return glm::mat4_cast(glm::angleAxis(float(bend_degrees * kPi / 180), glm::vec3(1, 0, 0)) *
-                        glm::angleAxis(float(twist_degrees * kPi / 180), glm::vec3(0, 0, 1)));
+  return glm::mat4_cast(glm::angleAxis(float(bend_degrees * glm::pi<double>() / 180), glm::vec3(1, 0, 0)) *
+                        glm::angleAxis(float(twist_degrees * glm::pi<double>() / 180), glm::vec3(0, 0, 1)));
 }
 
 }  // namespace

@@ -3,6 +3,8 @@
 #include "gltf_animation.h"
 #include "test_support.h"
 
+#include <glm/gtc/constants.hpp>
+
 #include <doctest/doctest.h>
 #include <nlohmann/json.hpp>
 
@@ -18,8 +20,6 @@ using skelform::samples::GltfError;
 using skelform::samples::kStaticPose;
 
 namespace {
-
-constexpr double kPi = 3.14159265358979323846;
 
 std::string base64(const std::string& bytes) {
   static const char* const alphabet = "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
@@ -92,7 +92,7 @@ struct GltfBuilder {
 };
 
 std::vector<float> quat_z(double degrees) {  // glTF order x, y, z, w
-  const double half = degrees * kPi / 360.0;
+  const double half = degrees * glm::pi<double>() / 360.0;
   return {0.0f, 0.0f, static_cast<float>(std::sin(half)), static_cast<float>(std::cos(half))};
 }
 
@@ -103,7 +103,7 @@ std::vector<float> concat(std::initializer_list<std::vector<float>> parts) {
 }
 
 // Angle about z of a column-major rotation matrix.
-double z_angle_degrees(const float* m) { return std::atan2(m[1], m[0]) * 180.0 / kPi; }
+double z_angle_degrees(const float* m) { return std::atan2(m[1], m[0]) * 180.0 / glm::pi<double>(); }
 
 bool near(double a, double b, double tolerance = 1e-5) { return std::fabs(a - b) <= tolerance; }
 

@@ -10,6 +10,7 @@
 #include "test_support.h"
 
 #include <glm/geometric.hpp>
+#include <glm/gtc/constants.hpp>
 
 #include <cmath>
 #include <random>
@@ -119,7 +120,7 @@ TEST_CASE("quality metrics: welding, closedness, volume and pairs added") {
     CHECK(topology.triangles.size() == sphere.triangles.size());
     const double volume = skelform::samples::enclosed_volume(topology, positions);
     CHECK(volume == doctest::Approx(skelform::bake::enclosed_volume(sphere)).epsilon(1e-6));  // (its float positions)
-    CHECK(volume == doctest::Approx(4.0 / 3.0 * 3.14159265358979 * 8.0).epsilon(0.02));  // the ball it approximates
+    CHECK(volume == doctest::Approx(4.0 / 3.0 * glm::pi<double>() * 8.0).epsilon(0.02));  // the ball it approximates
     CHECK(skelform::samples::bounding_diagonal(positions) == doctest::Approx(4.0 * std::sqrt(3.0)).epsilon(1e-6));
   }
   SUBCASE("split at a seam (duplicated vertices): welded back, still closed") {
