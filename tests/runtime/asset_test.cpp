@@ -4,14 +4,15 @@
 // every kind of corruption of a baked file gives its own sf_result and a message, never a
 // crash; a caller's allocator is used for everything the asset owns and balances.
 #include "asset.h"
-#include "skelform/core/dss_frame.h"
 #include "refine.h"
 #include "skelform/bake/bake.h"
 #include "skelform/bake/gltf_writer.h"
 #include "skelform/bake/glb.h"
 #include "skelform/bake/input.h"
+#include "skelform/core/dss_frame.h"
 #include "skelform/skelform.h"
 #include "capsule_glb.h"
+#include "counting_heap.h"
 #include "glb_edit.h"
 #include "test_support.h"
 
@@ -116,36 +117,6 @@ void check_corrupt(const Glb& glb, sf_result expected, const std::string& part) 
   CHECK_MESSAGE(contains(load.message, part), load.message);
 }
 
-// Counting allocator: every block is tracked so a test sees leaks and double frees.
-struct CountingHeap {
-  std::atomic<long> allocations{0};
-  std::atomic<long> frees{0};
-  std::atomic<long> live{0};
-  long fail_after = -1;  // >= 0: the allocation with this index (and later ones) fail
-};
-
-void* counting_alloc(void* user, size_t size, size_t align) {
-  auto* heap = static_cast<CountingHeap*>(user);
-  const long index = heap->allocations.fetch_add(1);
-  if (heap->fail_after >= 0 && index >= heap->fail_after) {
-    heap->allocations.fetch_sub(1);
-    return nullptr;
-  }
-  CHECK(align >= 1);
-  CHECK((align & (align - 1)) == 0);
-  void* p = std::aligned_alloc(align, (size + align - 1) / align * align);
-  if (p) ++heap->live;
-  return p;
-}
-
-void counting_free(void* user, void* ptr) {
-  if (!ptr) return;
-  auto* heap = static_cast<CountingHeap*>(user);
-  ++heap->frees;
-  --heap->live;
-  std::free(ptr);
-}
-
 }  // namespace
 
 TEST_SUITE("asset") {
@@ -191,7 +162,7 @@ TEST_SUITE("asset") {
 
     // Half an allocator would free into another heap than it allocated from.
     sf_allocator half{};
-    half.alloc = counting_alloc;
+    half.alloc = skelform::test::CountingHeap::alloc;
     options.allocator = &half;
     options.error_message_capacity = sizeof message;
     CHECK(sf_asset_load_memory("garbage!", 8, &options, &asset) == SF_ERROR_INVALID_ARGUMENT);
@@ -618,8 +589,8 @@ TEST_SUITE("asset") {
   TEST_CASE("a caller's allocator holds every byte of the asset and balances; failures are out of memory") {
     SKELFORM_REQUIRE_DATA(path, "RiggedSimple/RiggedSimple.glb");
     const std::string glb = baked_sample(path).glb;
-    CountingHeap heap;
-    sf_allocator allocator{counting_alloc, counting_free, &heap};
+    skelform::test::CountingHeap heap;
+    const sf_allocator allocator = heap.callbacks();
     {
       Load load;
       load_memory(glb, load, &allocator);
@@ -633,9 +604,9 @@ TEST_SUITE("asset") {
     // Fail the n-th allocation: every partial asset is released through the same callbacks.
     const long total = heap.allocations;
     for (long fail_at : {0L, 1L, 2L, total / 2, total - 1}) {
-      CountingHeap failing;
+      skelform::test::CountingHeap failing;
       failing.fail_after = fail_at;
-      sf_allocator callbacks{counting_alloc, counting_free, &failing};
+      const sf_allocator callbacks = failing.callbacks();
       Load load;
       load_memory(glb, load, &callbacks);
       CHECK_MESSAGE(load.result == SF_ERROR_OUT_OF_MEMORY, fail_at << ": " << load.message);

@@ -7,6 +7,7 @@
 // - the handle driver moves the surface toward its targets;
 // - error paths: wrong joint count, NaN matrix, write before evaluate, bad primitive,
 //   out-of-range fairing options, bad handle sets; no allocation in evaluate/write.
+#include "counting_heap.h"
 #include "runtime/runtime_models.h"
 
 #include <glm/gtc/constants.hpp>
@@ -373,29 +374,10 @@ TEST_CASE("evaluate: invalid calls are refused with their result and a message a
   CHECK(glm::length(rest.positions[0] - model.primitives[0].positions[0]) < 1e-5f);
 }
 
-namespace {
-
-// Counts live allocations and bytes through the sf_allocator callbacks.
-struct Counter {
-  std::atomic<long> allocations{0};
-  std::atomic<long> frees{0};
-};
-
-void* counting_alloc(void* user, size_t size, size_t align) {
-  static_cast<Counter*>(user)->allocations++;
-  return std::aligned_alloc(align, (size + align - 1) / align * align);
-}
-void counting_free(void* user, void* ptr) {
-  if (ptr) static_cast<Counter*>(user)->frees++;
-  std::free(ptr);
-}
-
-}  // namespace
-
 TEST_CASE("evaluate: evaluation and output never allocate and everything the instance allocated is freed") {
   const RuntimeModel& model = skelform::test::capsule_model();
-  Counter counter;
-  const sf_allocator allocator{counting_alloc, counting_free, &counter};
+  skelform::test::CountingHeap counter;
+  const sf_allocator allocator = counter.callbacks();
   sf_load_options load{};
   load.allocator = &allocator;
   sf_asset* asset = nullptr;

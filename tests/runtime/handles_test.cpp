@@ -3,6 +3,7 @@
 // interpolation, translation reproduction, the bi-umbrella equation at free vertices, agreement
 // with an independent Eigen solve, smooth decay, no allocation per solve, refused handle sets,
 // and the real-model scenario (a baked hand, a fingertip dragged, the wrist pinned).
+#include "counting_heap.h"
 #include "handles.h"
 
 #include "skelform/bake/bake.h"
@@ -138,20 +139,6 @@ double max_norm(const std::vector<glm::dvec3>& f) {
   double m = 0;
   for (const auto& v : f) m = std::max(m, glm::length(v));
   return m;
-}
-
-// Counting sf_allocator: every byte the runtime allocates through the callbacks.
-struct Counter {
-  size_t allocations = 0;
-  size_t frees = 0;
-};
-void* counting_alloc(void* user, size_t size, size_t align) {
-  ++static_cast<Counter*>(user)->allocations;
-  return std::aligned_alloc(align, (size + align - 1) / align * align);
-}
-void counting_free(void* user, void* ptr) {
-  if (ptr) ++static_cast<Counter*>(user)->frees;
-  std::free(ptr);
 }
 
 // A capsule along z: radius 0.25, cylinder from z = -1 to 1.
@@ -300,12 +287,12 @@ TEST_CASE("handles: components with no handle and no pin stay still; a repeated 
 
 void check_no_allocation_in_solve(HandleSolvePath path) {
   const Deformable d = make_deformable(capsule());
-  Counter counter;
-  const AllocatorRef alloc{sf_allocator{counting_alloc, counting_free, &counter}};
+  skelform::test::CountingHeap counter;
+  const AllocatorRef alloc{counter.callbacks()};
   {
     const SystemPtr s = create(d, {0, 1, 2}, {uint32_t(d.control_vertex_count - 1)}, alloc, path);
     CHECK(counter.allocations > 0);
-    const size_t before = counter.allocations;
+    const long before = counter.allocations;
     std::vector<glm::vec3> out(d.control_vertex_count);
     const std::vector<glm::vec3> disp(3, glm::vec3(0.1f, 0.2f, 0.3f));
     for (int frame = 0; frame < 10; ++frame) skelform::runtime::handle_system_solve(*s, d, disp.data(), out.data());
@@ -322,8 +309,8 @@ TEST_CASE("handles: solving allocates nothing; creation allocates through the gi
 TEST_CASE("handles: invalid handle sets are refused with std::invalid_argument") {
   const Deformable d = make_deformable(skelform::bake::make_icosphere(1.0, 1));
   const uint32_t n = d.control_vertex_count;
-  Counter counter;
-  const AllocatorRef alloc{sf_allocator{counting_alloc, counting_free, &counter}};
+  skelform::test::CountingHeap counter;
+  const AllocatorRef alloc{counter.callbacks()};
   CHECK_THROWS_AS(create(d, {}, {1, 2}, alloc), std::invalid_argument);      // no handle
   CHECK_THROWS_AS(create(d, {0, n}, {}, alloc), std::invalid_argument);      // handle out of range
   CHECK_THROWS_AS(create(d, {0}, {n + 5}, alloc), std::invalid_argument);    // pin out of range
