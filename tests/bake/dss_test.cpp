@@ -11,6 +11,7 @@
 #include "skelform/bake/weld.h"
 
 #include "skelform/core/dss_frame.h"
+#include "open_capsule.h"
 #include "test_support.h"
 
 #include <doctest/doctest.h>
@@ -293,13 +294,7 @@ TEST_CASE("DSS binding of an open surface: vertices beyond the border clamp to i
   // A capsule with its top cap removed from the control mesh, bound to the full dense one.
   const double length = 2.0;
   const TriangleMesh full = make_capsule(0.5, length, 24, 8, 6);
-  TriangleMesh open = full;
-  open.triangles.clear();
-  for (const Triangle& t : full.triangles) {
-    bool in_cap = true;
-    for (uint32_t v : t) in_cap = in_cap && full.positions[v].z > length / 2 - 1e-9;
-    if (!in_cap) open.triangles.push_back(t);
-  }
+  const TriangleMesh open = skelform::test::without_top_cap(full, length);
   const TriangleMesh dense = make_capsule(0.5, length, 64, 24, 16);
   const Refined refined = refine(open, 1);
   const double diagonal = bounds_of(dense.positions).diagonal();

@@ -1,6 +1,7 @@
 // Checks bake/src/self_intersection.cpp: the narrow phase on analytic cases, the count on
 // closed and folded meshes, and the grid broad phase against brute force.
 #include "skelform/bake/self_intersection.h"
+#include "brute_force_pairs.h"
 #include "skelform/bake/procedural.h"
 
 #include <doctest/doctest.h>
@@ -16,20 +17,7 @@ using namespace skelform::bake;
 namespace {
 
 size_t brute_force_count(const TriangleMesh& mesh) {
-  size_t count = 0;
-  for (size_t s = 0; s < mesh.triangles.size(); ++s)
-    for (size_t t = s + 1; t < mesh.triangles.size(); ++t) {
-      const Triangle& p = mesh.triangles[s];
-      const Triangle& q = mesh.triangles[t];
-      bool adjacent = false;
-      for (uint32_t i : p)
-        for (uint32_t j : q) adjacent = adjacent || i == j;
-      if (adjacent) continue;
-      if (triangles_intersect(mesh.positions[p[0]], mesh.positions[p[1]], mesh.positions[p[2]], mesh.positions[q[0]],
-                              mesh.positions[q[1]], mesh.positions[q[2]]))
-        ++count;
-    }
-  return count;
+  return skelform::test::brute_force_pairs(mesh.triangles, [&](uint32_t v) { return mesh.positions[v]; }).size();
 }
 
 }  // namespace

@@ -4,6 +4,7 @@
 #include "skelform/bake/procedural.h"
 #include "skelform/bake/subdivision.h"
 #include "skelform/core/dss_frame.h"
+#include "open_capsule.h"
 
 #include <doctest/doctest.h>
 
@@ -166,14 +167,8 @@ TEST_CASE("Loop stencils at level 0 are the identity on the control mesh") {
 TEST_CASE("Loop stencils of an open capsule keep the open rim on its plane (boundary curve rule)") {
   const double length = 2.0;
   const TriangleMesh capsule = make_capsule(0.5, length, 12, 4, 4);
-  TriangleMesh open = capsule;
-  open.triangles.clear();
-  // Remove the top cap: the rim is the cylinder's top loop at z = L/2.
-  for (const Triangle& t : capsule.triangles) {
-    bool in_cap = true;
-    for (uint32_t v : t) in_cap = in_cap && capsule.positions[v].z > length / 2 - 1e-9;
-    if (!in_cap) open.triangles.push_back(t);
-  }
+  // The rim is the cylinder's top loop at z = L/2.
+  const TriangleMesh open = skelform::test::without_top_cap(capsule, length);
   REQUIRE(open.triangles.size() < capsule.triangles.size());
   // Unreferenced cap vertices stay in the vertex list: they must not disturb anything.
   const SubdivisionStencils stencils = build_loop_stencils(open, 2);

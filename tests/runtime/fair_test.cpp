@@ -1,6 +1,7 @@
 // Checks the fairing (runtime/src/fair*.cpp, ball_hull.*): E_T against its definition, the
 // signs of flows (4) and (5), their determinism and scale invariance, and the target
 // on a bent, twisted capsule (self-intersections and volume change against LBS).
+#include "brute_force_pairs.h"
 #include "fair.h"
 #include "instance.h"
 #include "runtime/runtime_models.h"
@@ -607,28 +608,19 @@ TEST_CASE("fair_experiment" * doctest::skip(std::getenv("FAIR_EXPERIMENT") == nu
       m = measure(scene, x);
       const TriangleMesh posed = with_positions(scene.rest, x);
       if (env("WHERE", 0) != 0 && m.intersections) {
-        for (size_t a = 0; a < posed.triangles.size(); ++a)
-          for (size_t b = a + 1; b < posed.triangles.size(); ++b) {
-            const auto& p = posed.triangles[a];
-            const auto& q = posed.triangles[b];
-            bool adjacent = false;
-            for (uint32_t i : p)
-              for (uint32_t j : q) adjacent = adjacent || i == j;
-            if (adjacent) continue;
-            if (!skelform::bake::triangles_intersect(posed.positions[p[0]], posed.positions[p[1]],
-                                                     posed.positions[p[2]], posed.positions[q[0]],
-                                                     posed.positions[q[1]], posed.positions[q[2]]))
-              continue;
-            auto where = [&](const skelform::bake::Triangle& t) {
-              const Vec3 c =
-                  (scene.rest.positions[t[0]] + scene.rest.positions[t[1]] + scene.rest.positions[t[2]]) / 3.0;
-              char buffer[64];
-              std::snprintf(buffer, sizeof buffer, "(z %.3f, angle %.0f)", c.z,
-                            std::atan2(c.y, c.x) * 180 / glm::pi<double>());
-              return std::string(buffer);
-            };
-            MESSAGE("  pair " << where(p) << " x " << where(q));
-          }
+        for (const auto& [a, b] :
+             skelform::test::brute_force_pairs(posed.triangles, [&](uint32_t v) { return posed.positions[v]; })) {
+          const auto& p = posed.triangles[a];
+          const auto& q = posed.triangles[b];
+          auto where = [&](const skelform::bake::Triangle& t) {
+            const Vec3 c = (scene.rest.positions[t[0]] + scene.rest.positions[t[1]] + scene.rest.positions[t[2]]) / 3.0;
+            char buffer[64];
+            std::snprintf(buffer, sizeof buffer, "(z %.3f, angle %.0f)", c.z,
+                          std::atan2(c.y, c.x) * 180 / glm::pi<double>());
+            return std::string(buffer);
+          };
+          MESSAGE("  pair " << where(p) << " x " << where(q));
+        }
       }
       MESSAGE("it " << it << ": " << m.intersections << " pairs, volume " << 100 * m.volume_change);
     }

@@ -4,6 +4,7 @@
 // exactly LBS; a tangle within the budget is resolved as always, to no pair LBS lacks. The
 // contact mesh's rest-pair search (at load) has the same bound.
 #include "asset.h"
+#include "brute_force_pairs.h"
 #include "contact.h"
 #include "instance.h"
 #include "lbs_guard.h"
@@ -67,16 +68,9 @@ struct Tangle {
 
 // Intersecting pairs of separate triangles at `p`, by brute force.
 size_t pairs_at(const std::vector<glm::vec3>& p) {
-  size_t pairs = 0;
-  const size_t n = p.size() / 3;
-  auto at = [&](size_t v) { return glm::dvec3(p[v]); };
-  for (size_t s = 0; s < n; ++s)
-    for (size_t t = s + 1; t < n; ++t)
-      pairs += skelform::geometry::triangles_intersect(at(3 * s), at(3 * s + 1), at(3 * s + 2), at(3 * t),
-                                                       at(3 * t + 1), at(3 * t + 2))
-                   ? 1
-                   : 0;
-  return pairs;
+  std::vector<std::array<uint32_t, 3>> soup(p.size() / 3);
+  for (uint32_t s = 0; s < soup.size(); ++s) soup[s] = {3 * s, 3 * s + 1, 3 * s + 2};
+  return skelform::test::brute_force_pairs(soup, [&](uint32_t v) { return glm::dvec3(p[v]); }).size();
 }
 
 }  // namespace

@@ -2,6 +2,7 @@
 // must miss no intersecting pair: it is checked against testing every pair of triangles, on
 // meshes made to intersect and on real characters posed by LBS; welding, closedness, volume
 // and the set difference against the bind pose on meshes whose answers are known.
+#include "brute_force_pairs.h"
 #include "gltf_animation.h"
 #include "quality_metrics.h"
 #include "skelform/bake/metrics.h"
@@ -39,18 +40,7 @@ std::vector<TrianglePair> brute_force_pairs(const DenseTopology& topology, const
     const size_t v = topology.vertex_of_welded[w];
     return skelform::bake::Vec3(positions[3 * v], positions[3 * v + 1], positions[3 * v + 2]);
   };
-  std::vector<TrianglePair> pairs;
-  const auto& tris = topology.triangles;
-  for (uint32_t s = 0; s < tris.size(); ++s)
-    for (uint32_t t = s + 1; t < tris.size(); ++t) {
-      bool adjacent = false;
-      for (uint32_t a : tris[s])
-        for (uint32_t b : tris[t]) adjacent = adjacent || a == b;
-      if (!adjacent && skelform::bake::triangles_intersect(at(tris[s][0]), at(tris[s][1]), at(tris[s][2]),
-                                                           at(tris[t][0]), at(tris[t][1]), at(tris[t][2])))
-        pairs.emplace_back(s, t);
-    }
-  return pairs;
+  return skelform::test::brute_force_pairs(topology.triangles, at);
 }
 
 }  // namespace
