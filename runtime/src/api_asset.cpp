@@ -150,7 +150,7 @@ sf_result sf_asset_primitive_info(const sf_asset* asset, uint32_t deformable, ui
   if (primitive >= d.primitives.size()) return SF_ERROR_INVALID_ARGUMENT;
   const skelform::runtime::PrimitiveRecord& record = d.primitives[primitive];
   sf_primitive_info info{};
-  info.primitive = record.primitive;
+  info.gltf_primitive = record.primitive;
   info.vertex_count = record.vertex_count;
   info.first_vertex = record.first_vertex;
   info.has_normals = record.has_normals ? 1u : 0u;

@@ -253,8 +253,8 @@ int run(const Arguments& args) {
         fail(kExitInternal, "cannot describe a primitive");
       c.primitives.push_back(primitive);
       PrimitiveFrames frames;
-      frames.rest_positions = gltf.primitive_positions(mesh, static_cast<size_t>(primitive.primitive));
-      frames.triangles = gltf.primitive_triangles(mesh, static_cast<size_t>(primitive.primitive));
+      frames.rest_positions = gltf.primitive_positions(mesh, static_cast<size_t>(primitive.gltf_primitive));
+      frames.triangles = gltf.primitive_triangles(mesh, static_cast<size_t>(primitive.gltf_primitive));
       if (frames.rest_positions.size() != 3 * size_t{primitive.vertex_count})
         fail(kExitInvalidInput, "a baked primitive's vertex count differs from the glTF's");
       for (uint32_t index : frames.triangles)

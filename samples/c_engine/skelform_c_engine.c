@@ -406,8 +406,9 @@ int main(int argc, char** argv) {
   for (p = 0; p < info.primitive_count; ++p) {
     if (!check(sf_asset_primitive_info(asset, 0, p, &primitives[p]), "sf_asset_primitive_info", NULL, NULL)) goto done;
     printf("    primitive %u (glTF %d): %u vertices from %u, normals %s, tangents %s\n", (unsigned)p,
-           (int)primitives[p].primitive, (unsigned)primitives[p].vertex_count, (unsigned)primitives[p].first_vertex,
-           primitives[p].has_normals ? "authored" : "computed", primitives[p].has_tangents ? "yes" : "no");
+           (int)primitives[p].gltf_primitive, (unsigned)primitives[p].vertex_count,
+           (unsigned)primitives[p].first_vertex, primitives[p].has_normals ? "authored" : "computed",
+           primitives[p].has_tangents ? "yes" : "no");
   }
 
   /* The pose source's data: the skin's hierarchy and inverse bind matrices. */

@@ -312,8 +312,8 @@ int run(const Arguments& args) {
       output.normals = mesh.normals.data() + 3 * first;
       output.vertex_capacity = primitive.vertex_count;
       instance.check(sf_instance_write(instance.handle, p, &output), "sf_instance_write");
-      const std::vector<uint32_t> triangles =
-          gltf.primitive_triangles(static_cast<size_t>(instance.info.mesh), static_cast<size_t>(primitive.primitive));
+      const std::vector<uint32_t> triangles = gltf.primitive_triangles(static_cast<size_t>(instance.info.mesh),
+                                                                       static_cast<size_t>(primitive.gltf_primitive));
       for (uint32_t index : triangles) {
         if (index >= primitive.vertex_count) fail(kExitInvalidInput, "a triangle index exceeds its primitive");
         mesh.triangles.push_back(static_cast<uint32_t>(first) + index);

@@ -267,7 +267,7 @@ std::vector<uint8_t> single_influence(const skelform::bake::InputMesh& input, co
   std::vector<uint8_t> rigid(c.info.vertex_count, 0);
   for (const sf_primitive_info& p : c.primitives) {
     const auto source = std::find_if(input.primitives.begin(), input.primitives.end(), [&](const auto& q) {
-      return q.mesh == c.info.mesh && q.primitive == p.primitive;
+      return q.mesh == c.info.mesh && q.primitive == p.gltf_primitive;
     });
     if (source == input.primitives.end() || source->vertex_count != p.vertex_count) continue;
     for (uint32_t v = 0; v < p.vertex_count; ++v) {
@@ -334,11 +334,12 @@ FileResult measure_file(const std::string& path, const Arguments& args) {
         if (sf_asset_primitive_info(loaded.asset.asset, d, p, &primitive) != SF_OK)
           fail(kExitInternal, "primitive info");
         c.primitives.push_back(primitive);
-        const std::vector<float> positions = gltf.primitive_positions(size_t(c.info.mesh), size_t(primitive.primitive));
+        const std::vector<float> positions =
+            gltf.primitive_positions(size_t(c.info.mesh), size_t(primitive.gltf_primitive));
         if (positions.size() != 3 * size_t{primitive.vertex_count})
           fail(kExitInvalidInput, "a baked primitive's vertex count differs from the glTF's");
         std::copy(positions.begin(), positions.end(), stored.begin() + 3 * size_t{primitive.first_vertex});
-        for (uint32_t index : gltf.primitive_triangles(size_t(c.info.mesh), size_t(primitive.primitive)))
+        for (uint32_t index : gltf.primitive_triangles(size_t(c.info.mesh), size_t(primitive.gltf_primitive)))
           triangles.push_back(primitive.first_vertex + index);
       }
       c.topology = dense_topology(stored, triangles);

@@ -208,7 +208,7 @@ TEST_SUITE("asset") {
         for (uint32_t p = 0; p < info.primitive_count; ++p) {
           sf_primitive_info primitive;
           REQUIRE(sf_asset_primitive_info(asset, d, p, &primitive) == SF_OK);
-          CHECK(primitive.primitive == expected.primitives[p]);
+          CHECK(primitive.gltf_primitive == expected.primitives[p]);
           CHECK(primitive.first_vertex == first);
           first += primitive.vertex_count;
         }

@@ -136,7 +136,7 @@ inline std::unique_ptr<RuntimeModel> load_baked(const std::string& name, std::st
   for (uint32_t p = 0; p < info.primitive_count; ++p) {
     sf_primitive_info pinfo{};
     REQUIRE(sf_asset_primitive_info(result->asset, 0, p, &pinfo) == SF_OK);
-    const tinygltf::Primitive& prim = model.meshes[size_t(info.mesh)].primitives[size_t(pinfo.primitive)];
+    const tinygltf::Primitive& prim = model.meshes[size_t(info.mesh)].primitives[size_t(pinfo.gltf_primitive)];
     OriginalPrimitive out;
     const std::vector<float> pos = read_floats(model, prim.attributes.at("POSITION"), 3);
     for (size_t i = 0; i < pos.size() / 3; ++i) {

@@ -41,7 +41,7 @@ inline WeldedSurface welded_surface(const RuntimeModel& model, const samples::Gl
   for (uint32_t p = 0; p < info.primitive_count; ++p) {
     sf_primitive_info pinfo{};
     REQUIRE(sf_asset_primitive_info(model.asset, 0, p, &pinfo) == SF_OK);
-    const std::vector<uint32_t> tris = gltf.primitive_triangles(size_t(info.mesh), size_t(pinfo.primitive));
+    const std::vector<uint32_t> tris = gltf.primitive_triangles(size_t(info.mesh), size_t(pinfo.gltf_primitive));
     for (size_t t = 0; t + 2 < tris.size(); t += 3) {
       const bake::Triangle tri = {welded[pinfo.first_vertex + tris[t]], welded[pinfo.first_vertex + tris[t + 1]],
                                   welded[pinfo.first_vertex + tris[t + 2]]};

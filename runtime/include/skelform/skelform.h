@@ -17,6 +17,9 @@
  * - Vertex data goes out in the original glTF vertex order of each primitive, so an engine
  *   streams it straight into the vertex buffers it built from the same glTF.
  * - Output memory belongs to the caller and is described by pointer + byte stride.
+ * - Two index spaces, never mixed: the `deformable` and `primitive` arguments of every call
+ *   count skelform's baked deformables and primitives (0 .. count-1); the info structs'
+ *   fields `mesh`, `node`, `skin` and `gltf_primitive` are indices into the glTF document.
  *
  * Ownership and threads
  * - An sf_asset is immutable after loading: any number of threads and instances may use it
@@ -197,18 +200,23 @@ typedef struct sf_deformable_info {
   uint32_t control_triangle_count; /* triangles of the control (and skeletal) mesh */
 } sf_deformable_info;
 
+/* Fills *out_info for deformable 0 .. sf_asset_deformable_count-1. SF_ERROR_INVALID_ARGUMENT
+ * for a NULL pointer or a deformable out of range (*out_info then unchanged). Thread-safe. */
 SF_API sf_result sf_asset_deformable_info(const sf_asset* asset, uint32_t deformable, sf_deformable_info* out_info);
 
 /* Description of one baked primitive of a deformable (index 0 .. primitive_count-1, in the
  * glTF mesh's primitive order). */
 typedef struct sf_primitive_info {
-  int32_t primitive;     /* index of the primitive in the glTF mesh */
-  uint32_t vertex_count; /* its POSITION count: the vertices written by sf_instance_write */
-  uint32_t first_vertex; /* offset of its vertices among the deformable's vertices */
-  uint32_t has_normals;  /* 1 if the primitive has NORMAL (else normals are computed) */
-  uint32_t has_tangents; /* 1 if the primitive has TANGENT (else no tangents are written) */
+  int32_t gltf_primitive; /* index of the primitive in the glTF mesh (meshes[mesh].primitives) */
+  uint32_t vertex_count;  /* its POSITION count: the vertices written by sf_instance_write */
+  uint32_t first_vertex;  /* offset of its vertices among the deformable's vertices */
+  uint32_t has_normals;   /* 1 if the primitive has NORMAL (else normals are computed) */
+  uint32_t has_tangents;  /* 1 if the primitive has TANGENT (else no tangents are written) */
 } sf_primitive_info;
 
+/* Fills *out_info for primitive 0 .. primitive_count-1 of a deformable: where its vertices go
+ * (sf_instance_write takes the same index). SF_ERROR_INVALID_ARGUMENT for a NULL pointer or an
+ * index out of range (*out_info then unchanged). Thread-safe. */
 SF_API sf_result sf_asset_primitive_info(const sf_asset* asset, uint32_t deformable, uint32_t primitive,
                                          sf_primitive_info* out_info);
 
