@@ -1,10 +1,11 @@
 // glTF 2.0 input (.gltf/.glb) through the Debian tinygltf shared library. Every accessor is
-// read through the validated readers of gltf_access.h (the runtime's gltf_read.h), so
-// nothing here indexes a tinygltf vector or a buffer before checking it.
-#include "skelform/bake/gltf_access.h"
-
+// read through the validated readers the runtime uses too (skelform/core/gltf_read.h), so
+// nothing here indexes a tinygltf vector or a buffer before checking it, and both halves of
+// skelform refuse the same files with the same sentences: the reader's GltfError becomes
+// the baker's Error of the same kind and message, at load_gltf.
 #include "input_formats.h"
 #include "skelform/core/extension_layout.h"
+#include "skelform/core/gltf_read.h"
 #include "skelform/core/skin_repair.h"
 
 #include <tiny_gltf.h>
@@ -116,9 +117,10 @@ void append_skin_influences(const tinygltf::Model& model, const tinygltf::Primit
                                               " JOINTS_n/WEIGHTS_n sets, the most skelform reads");
     if (joints == primitive.attributes.end()) invalid(what, "has WEIGHTS_" + set_name + " without JOINTS_" + set_name);
     if (weights == primitive.attributes.end()) invalid(what, "has JOINTS_" + set_name + " without WEIGHTS_" + set_name);
-    const std::vector<glm::uvec4> joint_values = gltf::read_joints(model, joints->second, what + " JOINTS_" + set_name);
+    const std::vector<glm::uvec4> joint_values =
+        skelform::gltf::read_joints(model, joints->second, what + " JOINTS_" + set_name);
     const std::vector<glm::dvec4> weight_values =
-        gltf::read_weights(model, weights->second, what + " WEIGHTS_" + set_name);
+        skelform::gltf::read_weights(model, weights->second, what + " WEIGHTS_" + set_name);
     if (joint_values.size() != vertex_count || weight_values.size() != vertex_count)
       invalid(what, "JOINTS_" + set_name + "/WEIGHTS_" + set_name + " count differs from POSITION count");
     accessors.push_back("WEIGHTS_" + set_name + " (accessor " + std::to_string(weights->second) + ")");
@@ -189,10 +191,12 @@ void append_skin_influences(const tinygltf::Model& model, const tinygltf::Primit
   }
 }
 
-InputMesh load_gltf(const std::vector<unsigned char>& bytes, bool binary, const std::string& name,
+namespace {
+
+InputMesh read_gltf(const std::vector<unsigned char>& bytes, bool binary, const std::string& name,
                     const LoadOptions& options) {
   tinygltf::Model model;
-  gltf::parse_model(bytes, binary, name, model);
+  skelform::gltf::parse_model(bytes.data(), bytes.size(), binary, name, model);
 
   // The node that represents each mesh: the first skinned node using it, else (all_meshes)
   // the first node using it.
@@ -233,13 +237,13 @@ InputMesh load_gltf(const std::vector<unsigned char>& bytes, bool binary, const 
       const auto position = primitive.attributes.find("POSITION");
       if (position == primitive.attributes.end()) invalid(what, "has no POSITION attribute");
 
-      const std::vector<Vec3> positions = gltf::read_vec3(model, position->second, what + " POSITION");
+      const std::vector<Vec3> positions = skelform::gltf::read_vec3(model, position->second, what + " POSITION");
       // Primitives may share accessors, so the totals grow faster than the file: checked
       // before each primitive is added.
       check_input_limits(mesh.positions.size() + positions.size(), mesh.triangles.size(), name);
       std::vector<uint32_t> corners;
       if (primitive.indices >= 0) {
-        corners = gltf::read_indices(model, primitive.indices, positions.size(), what + " indices");
+        corners = skelform::gltf::read_indices(model, primitive.indices, positions.size(), what + " indices");
       } else {
         corners.resize(positions.size());
         for (size_t i = 0; i < corners.size(); ++i) corners[i] = static_cast<uint32_t>(i);
@@ -261,8 +265,8 @@ InputMesh load_gltf(const std::vector<unsigned char>& bytes, bool binary, const 
         for (uint32_t& v : t) v += record.first_vertex;
       const auto override_attribute = primitive.attributes.find(format::kSkelformWeightAttribute);
       if (override_attribute != primitive.attributes.end()) {
-        const std::vector<float> values =
-            gltf::read_unit_scalars(model, override_attribute->second, what + " " + format::kSkelformWeightAttribute);
+        const std::vector<float> values = skelform::gltf::read_unit_scalars(
+            model, override_attribute->second, what + " " + format::kSkelformWeightAttribute);
         if (values.size() != positions.size())
           invalid(what, std::string(format::kSkelformWeightAttribute) + " count differs from POSITION count");
         mesh.skelform_weight_override.resize(mesh.positions.size(), -1.0f);
@@ -286,6 +290,25 @@ InputMesh load_gltf(const std::vector<unsigned char>& bytes, bool binary, const 
     invalid(name, "no mesh with triangle primitives");
   }
   return mesh;
+}
+
+}  // namespace
+
+InputMesh load_gltf(const std::vector<unsigned char>& bytes, bool binary, const std::string& name,
+                    const LoadOptions& options) {
+  try {
+    return read_gltf(bytes, binary, name, options);
+  } catch (const skelform::gltf::GltfError& error) {
+    switch (error.kind()) {
+      case skelform::gltf::GltfError::unsupported:
+        throw Error(ErrorKind::unsupported, error.what());
+      case skelform::gltf::GltfError::io:
+        throw Error(ErrorKind::io, error.what());
+      case skelform::gltf::GltfError::invalid:
+        break;
+    }
+    throw Error(ErrorKind::invalid_input, error.what());
+  }
 }
 
 }  // namespace detail

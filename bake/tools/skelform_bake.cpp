@@ -9,7 +9,6 @@
 #include "cli_bake.h"
 #include "progress.h"
 #include "skelform/bake/bake.h"
-#include "skelform/bake/gltf_access.h"
 #include "skelform/bake/gltf_writer.h"
 #include "skelform/bake/input.h"
 #include "skelform/bake/metrics.h"
@@ -17,6 +16,7 @@
 #include "skelform/bake/skeleton.h"
 #include "skelform/bake/tangent_flow.h"
 #include "skelform/bake/weld.h"
+#include "skelform/core/gltf_read.h"
 #include "skelform/skelform.h"
 
 #include <algorithm>
@@ -77,7 +77,7 @@ std::string usage() {
       std::to_string(kMaxInputTriangles) + " triangles, " + std::to_string(kMaxInputVertices) +
       " vertices\n"
       "  glTF              JSON nested at most " +
-      std::to_string(skelform::bake::gltf::kMaxJsonNesting) + " deep; at most " + std::to_string(kMaxInfluenceSets) +
+      std::to_string(skelform::gltf::kMaxJsonNesting) + " deep; at most " + std::to_string(kMaxInfluenceSets) +
       " JOINTS_n sets per primitive\n"
       "  PLY               the rows of all elements together fit in the body's bytes\n"
       "  skeleton          " +

@@ -1,5 +1,5 @@
 // Validated reading of glTF 2.0 data through tinygltf: the runtime's asset loader and the
-// baker (bake/include/skelform/bake/gltf_access.h, a thin layer over this) check every
+// baker (bake/src/input_gltf.cpp, which turns GltfError into its own Error) check every
 // accessor the same way. Part of skelform's core (core/CMakeLists.txt): compiled into the
 // runtime with hidden symbols, never seen through the C API.
 //
