@@ -140,12 +140,11 @@ void find_rest_pairs(const glm::vec3* rest_positions, const AllocatorRef& alloca
     boxes.set(mesh.hierarchy.slot[t], box);
   }
   refit_triangle_hierarchy(mesh.hierarchy, boxes, node_boxes.data());
-  uint64_t visits_left = pair_visit_budget(mesh.triangle_count);
+  PairBudget budget(mesh.triangle_count);
   const bool complete = self_pairs_triangle_hierarchy(
       mesh.hierarchy, node_boxes.data(), boxes, wanted.data(), node_wanted.data(), leaf_wanted.data(),
       [&](uint32_t s, uint32_t t) {
-        if (visits_left == 0) return false;
-        --visits_left;
+        if (!budget.spend()) return false;
         const uint32_t* p = tri + 3 * size_t(s);
         const uint32_t* q = tri + 3 * size_t(t);
         auto at = [&](uint32_t v) { return glm::dvec3(welded_rest[v]); };

@@ -192,12 +192,7 @@ class GuardPass {
   }
 
  private:
-  // One candidate pair from the budget; false when it is spent.
-  bool spend() {
-    if (ws_.visits_left == 0) return false;
-    --ws_.visits_left;
-    return true;
-  }
+  bool spend() { return ws_.budget.spend(); }
 
   // A pair of triangles whose boxes meet now and that share no corner: intersecting at x and
   // not at L? Then its corners are flagged.
@@ -248,6 +243,12 @@ class GuardPass {
   const TriangleHierarchy& h_;
 };
 
+// LBS everywhere, this evaluation: every λ 0 and none corrected (so no ramp lifts one).
+void fall_back_to_lbs(GuardWorkspace& ws) {
+  std::fill(ws.factor.begin(), ws.factor.end(), 0.0f);
+  ws.corrected_list.clear();
+}
+
 // The intersection guard from the current factors (ws.factor): halves λ at the moved corners of
 // every pair LBS does not have, until none is left. Round one tests every triangle with a
 // moved corner; each later round only the triangles around the vertices the previous round
@@ -264,8 +265,7 @@ void guard_intersections(const Deformable& d, const ContactMesh& mesh, const Den
   if (only) {
     pass.seed_incremental(*only);
   } else if (!pass.seed_all()) {
-    std::fill(ws.factor.begin(), ws.factor.end(), 0.0f);  // a non-finite position: LBS
-    ws.corrected_list.clear();                            // (no ramp: nothing is above 0)
+    fall_back_to_lbs(ws);  // a non-finite position
     return;
   }
   if (ws.test_list.empty()) return;
@@ -277,10 +277,8 @@ void guard_intersections(const Deformable& d, const ContactMesh& mesh, const Den
     for (uint32_t t : ws.test_list) ws.tested[t] = 0;
     ws.test_list.clear();
     if (!complete) {
-      // Over the budget: LBS everywhere, this evaluation (no ramp: nothing is above 0).
       for (uint32_t v : ws.flagged_list) ws.flagged[v] = 0;
-      std::fill(ws.factor.begin(), ws.factor.end(), 0.0f);
-      ws.corrected_list.clear();
+      fall_back_to_lbs(ws);
       ws.over_budget = true;
       return;
     }
@@ -402,7 +400,7 @@ void guard_and_blend(const Deformable& d, const ContactMesh& mesh, float scale, 
   ws.reach_ready = false;
   ws.rounds = 0;
   ws.volume_share = 1.0f;
-  ws.visits_left = pair_visit_budget(mesh.triangle_count);
+  ws.budget = PairBudget(mesh.triangle_count);
   ws.over_budget = false;
   const bool welded = mesh.weld.size() == d.vertex_count && mesh.triangle_count >= 2;
   if (welded) {

@@ -92,7 +92,7 @@ struct GuardWorkspace {
   Array<uint8_t> node_flags;       // per node: it holds a triangle of the first round
   Array<uint32_t> leaf_flags;      // per leaf node: its lanes holding one
   bool reach_ready = false;        // reach_boxes hold every position to come this evaluation
-  uint64_t visits_left = 0;        // of this evaluation's budget
+  PairBudget budget;               // this evaluation's candidate pairs
   bool over_budget = false;        // the last evaluation ran out of it (and is LBS)
   uint32_t rounds = 0;             // of the last evaluation
   uint32_t corrected = 0;          // welded vertices with λ < 1 after the last evaluation

@@ -178,6 +178,20 @@ constexpr uint64_t kPairVisitsPerTriangle = 64;
 constexpr uint64_t kPairVisitsFloor = uint64_t(1) << 16;
 inline uint64_t pair_visit_budget(uint32_t triangles) { return kPairVisitsPerTriangle * triangles + kPairVisitsFloor; }
 
+// One search's allowance of candidate pairs: the visitor spends one per pair and stops the
+// search when spend() says the budget is used up.
+struct PairBudget {
+  uint64_t left = 0;
+
+  PairBudget() = default;
+  explicit PairBudget(uint32_t triangles) : left(pair_visit_budget(triangles)) {}
+  bool spend() {
+    if (left == 0) return false;
+    --left;
+    return true;
+  }
+};
+
 namespace detail {
 
 // visit(args...), and whether the search goes on: a visitor may return bool (false stops the

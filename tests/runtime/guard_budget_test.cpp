@@ -94,7 +94,7 @@ TEST_CASE("guard: a tangle beyond the work budget stops the search and is LBS, b
   std::vector<glm::vec3> out;
   const GuardWorkspace ws = tangle.blend(out);
   CHECK(ws.over_budget);
-  CHECK(ws.visits_left == 0);  // it spent the budget and no more
+  CHECK(ws.budget.left == 0);  // it spent the budget and no more
   CHECK(ws.corrected == tangle.mesh.vertex_count);
   size_t differ = 0;
   for (size_t v = 0; v < out.size(); ++v) differ += out[v] != tangle.rest[v] ? 1 : 0;
