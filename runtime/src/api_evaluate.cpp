@@ -154,7 +154,7 @@ void drive_and_reconstruct(sf_instance& instance, const sf_eval_options& options
     // The homotopy continues from the previous reconstruction, before its fairing (the flows
     // post-process a reconstruction; they are not its state).
     reconstruct_homotopy(d, offset, instance.previous_skeletal.data(),
-                         instance.has_fairing_offset ? instance.fairing_start.data() : instance.previous_control.data(),
+                         instance.fairing.has_offset ? instance.fairing.start.data() : instance.previous_control.data(),
                          nullptr, instance.skeletal.data(), instance.radius, steps, instance.step_normals_a.data(),
                          instance.step_normals_b.data(), instance.control.data());
   else
@@ -212,8 +212,8 @@ sf_result evaluate(sf_instance& instance, const sf_eval_options& options) {
   const bool skelform = options.method == SF_METHOD_SKELFORM;
   const DenseBuffers buffers = skelform ? skelform_buffers(instance) : lbs_buffers(instance);
   const DenseOutput result = buffers.output();
-  const uint32_t fairing_iterations = instance.last_fairing_iterations;
-  const float fairing_residual = instance.last_fairing_residual;
+  const uint32_t fairing_iterations = instance.fairing.last_iterations;
+  const float fairing_residual = instance.fairing.last_residual;
   float scale = 1.0f;
   if (skelform)
     evaluate_skelform(instance, options, with_normals, result, scale);
@@ -224,9 +224,9 @@ sf_result evaluate(sf_instance& instance, const sf_eval_options& options) {
   // Output that would not be finite is refused before it replaces the last output. The
   // refused pose's fairing correction is no warm start for the next evaluation.
   if (!output_finite(d, result, with_normals)) {
-    instance.has_fairing_offset = false;
-    instance.last_fairing_iterations = fairing_iterations;
-    instance.last_fairing_residual = fairing_residual;
+    instance.fairing.has_offset = false;
+    instance.fairing.last_iterations = fairing_iterations;
+    instance.fairing.last_residual = fairing_residual;
     return fail(&instance, SF_ERROR_INVALID_ARGUMENT,
                 "sf_instance_evaluate: the output would not be finite (vertex %u): the joint matrices or handle "
                 "targets are out of range for this asset; the last output is kept",
@@ -260,8 +260,8 @@ sf_result sf_instance_evaluate(sf_instance* instance, const sf_eval_options* opt
 
 sf_result sf_instance_fairing_stats(const sf_instance* instance, uint32_t* iterations, float* residual) {
   if (!instance) return SF_ERROR_INVALID_ARGUMENT;
-  if (iterations) *iterations = instance->last_fairing_iterations;
-  if (residual) *residual = instance->last_fairing_residual;
+  if (iterations) *iterations = instance->fairing.last_iterations;
+  if (residual) *residual = instance->fairing.last_residual;
   return SF_OK;
 }
 

@@ -52,14 +52,7 @@ void size_control_buffers(sf_instance& instance, const Deformable& d, const Allo
   instance.arc_radius.resize(control_count);
   instance.scaled_radius.resize(control_count);
   instance.radius = d.medial_radius.data();
-  instance.fairing = make_fairing_workspace(d.fairing_topology, kMaxIntersectionGrid, allocator);
-  instance.fairing_frames.resize(control_count);
-  instance.fairing_offset.assign(control_count, glm::vec3(0.0f));
-  instance.fairing_start.resize(control_count);
-  instance.fairing_shape.assign(control_count, glm::vec3(0.0f));
-  instance.fairing_reference_umbrella.assign(control_count, glm::vec3(0.0f));
-  instance.fairing_mean_edge.assign(control_count, 0.0f);
-  instance.fairing_fixed.assign(control_count, 0);
+  instance.fairing.allocate(d, allocator);
   instance.control_normal_sums.resize(control_count + kVec3ReadPadding);
 }
 
@@ -117,13 +110,6 @@ sf_instance::sf_instance(const sf_asset& owner, const Deformable& d)
       scaled_radius(CallbackAllocator<float>(owner.allocator)),
       fairing(owner.allocator),
       contact(owner.allocator),
-      fairing_frames(CallbackAllocator<glm::mat3>(owner.allocator)),
-      fairing_offset(CallbackAllocator<glm::vec3>(owner.allocator)),
-      fairing_start(CallbackAllocator<glm::vec3>(owner.allocator)),
-      fairing_shape(CallbackAllocator<glm::vec3>(owner.allocator)),
-      fairing_reference_umbrella(CallbackAllocator<glm::vec3>(owner.allocator)),
-      fairing_mean_edge(CallbackAllocator<float>(owner.allocator)),
-      fairing_fixed(CallbackAllocator<uint8_t>(owner.allocator)),
       control_normal_sums(CallbackAllocator<glm::vec3>(owner.allocator)),
       refined_positions(CallbackAllocator<glm::vec3>(owner.allocator)),
       refined_normals(CallbackAllocator<glm::vec3>(owner.allocator)),

@@ -17,6 +17,28 @@
 
 namespace skelform::runtime {
 
+FairingState::FairingState(const AllocatorRef& allocator)
+    : workspace(allocator),
+      frames(CallbackAllocator<glm::mat3>(allocator)),
+      offset(CallbackAllocator<glm::vec3>(allocator)),
+      start(CallbackAllocator<glm::vec3>(allocator)),
+      shape(CallbackAllocator<glm::vec3>(allocator)),
+      reference_umbrella(CallbackAllocator<glm::vec3>(allocator)),
+      mean_edge(CallbackAllocator<float>(allocator)),
+      fixed(CallbackAllocator<uint8_t>(allocator)) {}
+
+void FairingState::allocate(const Deformable& d, const AllocatorRef& allocator) {
+  const uint32_t n = d.control_vertex_count;
+  workspace = make_fairing_workspace(d.fairing_topology, kMaxIntersectionGrid, allocator);
+  frames.resize(n);
+  offset.assign(n, glm::vec3(0.0f));
+  start.resize(n);
+  shape.assign(n, glm::vec3(0.0f));
+  reference_umbrella.assign(n, glm::vec3(0.0f));
+  mean_edge.assign(n, 0.0f);
+  fixed.assign(n, 0);
+}
+
 namespace {
 
 // Pose jump: the local shape of M (each umbrella vector in its vertex's frame, in units of the
@@ -32,11 +54,11 @@ uint32_t record_local_shapes(sf_instance& instance, const glm::mat3* frames) {
   for (uint32_t v = 0; v < n; ++v) {
     const uint32_t begin = topo.neighbour_offsets[v], end = topo.neighbour_offsets[v + 1];
     if (begin == end) continue;
-    const glm::vec3 shape = glm::transpose(frames[v]) * instance.fairing_reference_umbrella[v] /
-                            std::max(instance.fairing_mean_edge[v], 1e-30f);
-    const float change = glm::length(shape - instance.fairing_shape[v]);
+    const glm::vec3 shape = glm::transpose(frames[v]) * instance.fairing.reference_umbrella[v] /
+                            std::max(instance.fairing.mean_edge[v], 1e-30f);
+    const float change = glm::length(shape - instance.fairing.shape[v]);
     if (!(change <= kPoseJumpShape)) ++changed;  // NaN counts as changed
-    instance.fairing_shape[v] = shape;
+    instance.fairing.shape[v] = shape;
   }
   return changed;
 }
@@ -49,13 +71,13 @@ FairingParams stage_params(sf_instance& instance, const FairStageOptions& option
   const size_t n = d.control_vertex_count;
   const glm::vec3* skeletal = instance.skeletal.data();
   FairingParams params = options.params;
-  params.smoothing_reference = instance.fairing_start.data();
-  params.smoothing_reference_umbrella = instance.fairing_reference_umbrella.data();
+  params.smoothing_reference = instance.fairing.start.data();
+  params.smoothing_reference_umbrella = instance.fairing.reference_umbrella.data();
   // The handle driver's pinned region stays at rest (paper Fig. 1): a skeletal vertex that the
   // displacement field left exactly in place keeps its control vertex out of the fairing.
   if (instance.driver == Driver::handles) {
-    for (size_t v = 0; v < n; ++v) instance.fairing_fixed[v] = skeletal[v] == d.skeletal_positions[v] ? 1 : 0;
-    params.fixed = instance.fairing_fixed.data();
+    for (size_t v = 0; v < n; ++v) instance.fairing.fixed[v] = skeletal[v] == d.skeletal_positions[v] ? 1 : 0;
+    params.fixed = instance.fairing.fixed.data();
   } else if (!d.control_rigid.empty()) {
     // The skin driver: what one joint carries alone moves rigidly with it (lbs_guard.h), so
     // the flows leave it where the skin put it and bend the blend zones between.
@@ -72,56 +94,58 @@ FairingParams stage_params(sf_instance& instance, const FairStageOptions& option
 
 void fair_stage(sf_instance& instance, const FairStageOptions& options) {
   const Deformable& d = *instance.deformable;
-  instance.last_fairing_iterations = 0;
-  instance.last_fairing_residual = 0.0f;
+  instance.fairing.last_iterations = 0;
+  instance.fairing.last_residual = 0.0f;
   const bool enabled = d.fairing_supported && (options.params.fold_flow || options.params.intersection_flow);
   if (!enabled) {
-    instance.has_fairing_offset = false;
+    instance.fairing.has_offset = false;
     return;
   }
   const size_t n = d.control_vertex_count;
   glm::vec3* x = instance.control.data();
   const glm::vec3* skeletal = instance.skeletal.data();
-  glm::mat3* frames = instance.fairing_frames.data();
+  glm::mat3* frames = instance.fairing.frames.data();
   // The frames, and from the same pass U(M) (the smoothing reference's umbrellas, for fair_run)
   // and the mean edge lengths of M (the pose-jump test's unit).
-  fairing_frames(d.fairing_topology, skeletal, x, frames, &d.fairing_rest, instance.fairing_reference_umbrella.data(),
-                 instance.fairing_mean_edge.data());
+  fairing_frames(d.fairing_topology, skeletal, x, frames, &d.fairing_rest, instance.fairing.reference_umbrella.data(),
+                 instance.fairing.mean_edge.data());
 
   const FairingTopology& topo = d.fairing_topology;
   const uint32_t changed = record_local_shapes(instance, frames);
   // A switch of driver (handles ↔ skin) is a jump too.
   const bool jump = static_cast<float>(changed) > kPoseJumpFraction * static_cast<float>(n);
   const bool warm =
-      !options.from_rest && instance.has_fairing_offset && !jump && instance.fairing_driver == instance.driver;
-  instance.fairing_driver = instance.driver;
+      !options.from_rest && instance.fairing.has_offset && !jump && instance.fairing.driver == instance.driver;
+  instance.fairing.driver = instance.driver;
   // Annealing. f is a minimum over balls and α a threshold rule, so the flows' right-hand
   // sides jump where the minimiser or the rule switches, and fixed steps chatter there with an
   // amplitude proportional to the step (docs/tuning.md). A held pose (the same
   // reconstruction, bit for bit, as last time) therefore halves the steps at every evaluation,
   // so it comes to rest; any change of the input restores them.
-  const bool held = warm && std::memcmp(instance.fairing_start.data(), x, n * sizeof(glm::vec3)) == 0;
-  instance.fairing_gain = held ? instance.fairing_gain * 0.5f : 1.0f;
-  std::memcpy(instance.fairing_start.data(), x, n * sizeof(glm::vec3));
+  const bool held = warm && std::memcmp(instance.fairing.start.data(), x, n * sizeof(glm::vec3)) == 0;
+  instance.fairing.gain = held ? instance.fairing.gain * 0.5f : 1.0f;
+  std::memcpy(instance.fairing.start.data(), x, n * sizeof(glm::vec3));
   if (warm)
-    for (size_t v = 0; v < n; ++v) x[v] += frames[v] * instance.fairing_offset[v];
+    for (size_t v = 0; v < n; ++v) x[v] += frames[v] * instance.fairing.offset[v];
 
   const FairingParams params = stage_params(instance, options);
   // A fresh start forgets the tracking schedule too: its result depends on this input only.
   if (!warm) {
-    instance.fairing.search_phase = 0;
-    std::fill(instance.fairing.hull_case.begin(), instance.fairing.hull_case.end(), kHullCaseUnknown);
+    instance.fairing.workspace.search_phase = 0;
+    std::fill(instance.fairing.workspace.hull_case.begin(), instance.fairing.workspace.hull_case.end(),
+              kHullCaseUnknown);
   }
-  const FairingSchedule run = run_fairing_schedule(topo, skeletal, instance.radius, x, n, params, warm,
-                                                   instance.fairing_gain, instance.fairing, &d.fairing_rest, frames);
-  instance.fairing_gain = run.gain;  // a held pose continues from the annealed steps
-  instance.last_fairing_iterations = run.iterations;
-  instance.last_fairing_residual = run.residual;
+  const FairingSchedule run =
+      run_fairing_schedule(topo, skeletal, instance.radius, x, n, params, warm, instance.fairing.gain,
+                           instance.fairing.workspace, &d.fairing_rest, frames);
+  instance.fairing.gain = run.gain;  // a held pose continues from the annealed steps
+  instance.fairing.last_iterations = run.iterations;
+  instance.fairing.last_residual = run.residual;
 
   // The correction, in the local frames, for the next evaluation's warm start.
   for (size_t v = 0; v < n; ++v)
-    instance.fairing_offset[v] = glm::transpose(frames[v]) * (x[v] - instance.fairing_start[v]);
-  instance.has_fairing_offset = true;
+    instance.fairing.offset[v] = glm::transpose(frames[v]) * (x[v] - instance.fairing.start[v]);
+  instance.fairing.has_offset = true;
 }
 
 FairingSchedule run_fairing_schedule(const FairingTopology& topology, const glm::vec3* skeletal, const float* radius,

@@ -151,6 +151,29 @@ struct FairStageOptions {
   FairingParams params;  // flows, stepping, steps, grid; params.iterations = the budget
   bool from_rest = false;
 };
+
+// What the fairing stage keeps from one evaluation to the next, owned by the instance: its
+// workspace, this evaluation's local frames of M, and the last correction M'' − M in those
+// frames (the warm start of the next evaluation), with what the pose-jump test compares.
+struct FairingState {
+  explicit FairingState(const AllocatorRef& allocator);
+  // Sizes everything for `d` (instance creation: evaluation never allocates).
+  void allocate(const Deformable& d, const AllocatorRef& allocator);
+
+  FairingWorkspace workspace;
+  Array<glm::mat3> frames;
+  Array<glm::vec3> offset;              // the correction, per control vertex in its frame
+  bool has_offset = false;              // offset holds a correction to warm-start from
+  Driver driver = Driver::skin;         // the driver that correction was made under
+  Array<glm::vec3> start;               // M before fairing
+  Array<glm::vec3> shape;               // U(M) per vertex in its frame (pose-jump test)
+  Array<glm::vec3> reference_umbrella;  // U(M) (FairingParams::smoothing_reference_umbrella)
+  Array<float> mean_edge;               // mean one-ring edge length of M (pose-jump test)
+  Array<uint8_t> fixed;                 // handle driver: vertices kept out of the fairing
+  float gain = 1.0f;                    // step scale: halves per evaluation while the pose is held
+  uint32_t last_iterations = 0;         // of the last evaluation (sf_instance_fairing_stats)
+  float last_residual = 0.0f;
+};
 void fair_stage(sf_instance& instance, const FairStageOptions& options);
 
 // The iteration schedule fair_stage runs (also for tests that fair a mesh without an instance).
@@ -229,25 +252,11 @@ struct sf_instance {
   float output_scale = 1.0f;  // σ of the last SF_METHOD_SKELFORM evaluation (1 for handles)
   bool has_previous = false;
 
-  // Fairing (fair_stage.cpp): workspace, this evaluation's local frames of M, and the last
-  // correction M'' − M in those frames (the warm start of the next evaluation).
-  skelform::runtime::FairingWorkspace fairing;
+  skelform::runtime::FairingState fairing;  // fair_stage.cpp
   // The contact pass (contact.h), while sf_instance_set_contacts has it on: its scratch (empty
   // while it is off).
   skelform::runtime::ContactWorkspace contact;
   bool contacts_enabled = false;
-  skelform::runtime::Array<glm::mat3> fairing_frames;
-  skelform::runtime::Array<glm::vec3> fairing_offset;
-  skelform::runtime::Array<glm::vec3> fairing_start;               // M before fairing
-  skelform::runtime::Array<glm::vec3> fairing_shape;               // U(M) per vertex in its frame (pose-jump test)
-  skelform::runtime::Array<glm::vec3> fairing_reference_umbrella;  // U(M) (FairingParams::smoothing_reference_umbrella)
-  skelform::runtime::Array<float> fairing_mean_edge;               // mean one-ring edge length of M (pose-jump test)
-  skelform::runtime::Array<uint8_t> fairing_fixed;                 // handle driver: vertices kept out of the fairing
-  bool has_fairing_offset = false;
-  float fairing_gain = 1.0f;  // step scale: halves per evaluation while the pose is held
-  skelform::runtime::Driver fairing_driver = skelform::runtime::Driver::skin;  // of the stored correction
-  uint32_t last_fairing_iterations = 0;
-  float last_fairing_residual = 0.0f;
 
   // Refined surface (and the control mesh's normal sums it is refined from; these three padded
   // by kVec3ReadPadding vectors, memory.h) and the dense result sf_instance_write copies out.
