@@ -5,13 +5,14 @@
 // allocates with the pass on, and the pass is output only (turned off again, an instance gives
 // the bits of one that never had it).
 #include "contact.h"
+#include "brute_force_pairs.h"
 #include "runtime/runtime_models.h"
-#include "skelform/bake/self_intersection.h"
 
 #include <doctest/doctest.h>
 #include <glm/geometric.hpp>
 
 #include <algorithm>
+#include <array>
 #include <atomic>
 #include <cmath>
 #include <cstring>
@@ -60,7 +61,6 @@ struct Scene {
   // Intersecting pairs of non-adjacent triangles, with vertices at one rest position welded (a
   // seam's copies are one vertex: the triangles around it are adjacent).
   size_t pairs(const std::vector<glm::vec3>& at) const {
-    skelform::bake::TriangleMesh mesh;
     std::vector<uint32_t> weld(positions.size());
     for (size_t v = 0; v < positions.size(); ++v) {
       weld[v] = uint32_t(v);
@@ -70,10 +70,10 @@ struct Scene {
           break;
         }
     }
-    for (const glm::vec3& p : at) mesh.positions.push_back(skelform::bake::Vec3(p));
+    std::vector<std::array<uint32_t, 3>> welded;
     for (size_t t = 0; t < triangles.size(); t += 3)
-      mesh.triangles.push_back({weld[triangles[t]], weld[triangles[t + 1]], weld[triangles[t + 2]]});
-    return skelform::bake::count_self_intersections(mesh);
+      welded.push_back({weld[triangles[t]], weld[triangles[t + 1]], weld[triangles[t + 2]]});
+    return skelform::test::brute_force_pairs(welded, [&](uint32_t v) { return glm::dvec3(at[v]); }).size();
   }
 };
 
