@@ -102,6 +102,7 @@ class Grid {
   // tested. Two sheets crossing within a cell with normals less than 120 degrees apart are
   // missed; on the sample animations the result equals testing every cell, at a third of the
   // cost (docs/tuning.md; a narrower cone misses a tip through a face, contact_test.cpp).
+  // Each candidate pair spends one of ws.budget; a spent budget ends the search early.
   template <class Visit>
   uint32_t for_each_pair(Visit&& visit) const {
     uint32_t count = 0;
@@ -115,6 +116,7 @@ class Grid {
             const uint32_t s = ws_.entries[i];
             const CellRange rs = range(s);
             for (uint32_t j = i + 1; j < offsets[c + 1]; ++j) {
+              if (!ws_.budget.spend()) return count;
               const uint32_t t = ws_.entries[j];
               // Each pair in the first cell of the overlap of both ranges only.
               const CellRange rt = range(t);
@@ -134,6 +136,7 @@ class Grid {
       for (uint32_t t = 0; t < mesh_.triangle_count; ++t) {
         // Oversized × oversized once (the later of the two; both lists ascending).
         if (t == s || (t < s && is_oversized(t))) continue;
+        if (!ws_.budget.spend()) return count;
         if (stored_boxes_meet(s, t) && meet(s, t)) {
           ++count;
           visit(s, t);
@@ -165,7 +168,7 @@ class Grid {
     // Another triangle is where it was bucketed, within the pad; kept if its box now meets the
     // star's (the others do not move while v does).
     auto consider = [&](uint32_t t) {
-      if (ws_.stamps[t] == ws_.stamp) return;
+      if (ws_.stamps[t] == ws_.stamp || !ws_.budget.spend()) return;
       ws_.stamps[t] = ws_.stamp;
       glm::vec3 a, b;
       box(t, a, b);
@@ -186,6 +189,7 @@ class Grid {
   // gather()'s candidates. With `push`, also the push of v out of them: for each pair (s, t),
   // where v lies behind t's plane or less than the gap in front of it, half the way out to the
   // gap along t's normal (t's corners take the other half when they are pushed in turn).
+  // Like gather(), each triangle it looks at spends one of ws.budget, and a spent budget ends it.
   uint32_t pairs_around(uint32_t v, glm::vec3* push) const {
     uint32_t count = 0;
     for (uint32_t k = mesh_.incident_offsets[v]; k < mesh_.incident_offsets[v + 1]; ++k) {
@@ -193,6 +197,7 @@ class Grid {
       glm::vec3 a, b;
       box(s, a, b);
       for (uint32_t t : ws_.candidates) {
+        if (!ws_.budget.spend()) return count;
         glm::vec3 c, d;
         box(t, c, d);
         if (a.x > d.x || c.x > b.x || a.y > d.y || c.y > b.y || a.z > d.z || c.z > b.z || !meet(s, t)) continue;
@@ -400,6 +405,12 @@ ContactStats resolve_contacts(const ContactMesh& mesh, float scale, glm::vec3* d
   for (uint32_t w = 0; w < mesh.vertex_count; ++w) x[w] = dense_positions[mesh.representative[w]];
   Grid grid(mesh, gap, ws);
   if (!grid.build(cap)) return stats;  // a non-finite position: leave the output as it is
+  ws.budget = PairBudget(mesh.triangle_count);
+  ws.budget.left *= kContactBudgetPasses;
+  auto spent = [&] {
+    stats.over_budget = ws.budget.left == 0;  // then move nothing: the counts were cut short
+    return stats.over_budget;
+  };
   // Detection: the corners of every intersecting pair become active.
   std::fill(ws.state.begin(), ws.state.end(), uint8_t(0));
   ws.active.clear();
@@ -415,7 +426,7 @@ ContactStats resolve_contacts(const ContactMesh& mesh, float scale, glm::vec3* d
           ws.active.push_back(v);  // capacity reserved for every vertex: no allocation
         }
   });
-  if (stats.pairs_before == 0 || ws.active.empty()) return stats;
+  if (spent() || stats.pairs_before == 0 || ws.active.empty()) return stats;
   std::sort(ws.active.begin(), ws.active.end());
   for (uint32_t v : ws.active) ws.start[v] = x[v];
   // Do no harm: an active vertex takes its push (or half, or a quarter of it) only if the
@@ -430,6 +441,7 @@ ContactStats resolve_contacts(const ContactMesh& mesh, float scale, glm::vec3* d
       grid.gather(v, 2.0f * cap);
       glm::vec3 push(0.0f);
       const uint32_t before = grid.pairs_around(v, &push);
+      if (spent()) return stats;
       if (before == 0 || !(glm::dot(push, push) > 0.0f)) continue;
       glm::vec3 total = x[v] + push - ws.start[v];
       const float length = glm::length(total);
@@ -441,6 +453,7 @@ ContactStats resolve_contacts(const ContactMesh& mesh, float scale, glm::vec3* d
         x[v] = old + step;
         accepted = grid.pairs_around(v, nullptr) <= before;
       }
+      if (spent()) return stats;
       if (!accepted) {
         x[v] = old;
         continue;

@@ -57,8 +57,12 @@ struct ContactMesh {
 };
 
 constexpr uint32_t kContactSweeps = 4;  // passes over the active vertices, at most
-constexpr float kContactGap = 0.05f;    // in mean rest edge lengths
-constexpr float kContactCap = 0.5f;     // in mean rest edge lengths
+// The pass's work budget, in guard budgets (pair_visit_budget): its detection is one search,
+// then each sweep gathers and tests candidates around every active vertex, several times
+// (docs/tuning.md has the corpus's worst use against it).
+constexpr uint64_t kContactBudgetPasses = 128;
+constexpr float kContactGap = 0.05f;  // in mean rest edge lengths
+constexpr float kContactCap = 0.5f;   // in mean rest edge lengths
 
 // Builds the welded mesh from the dense rest positions and triangles. Throws std::bad_alloc.
 ContactMesh build_contact_mesh(const glm::vec3* rest_positions, uint32_t vertex_count, const uint32_t* triangles,
@@ -92,6 +96,10 @@ struct ContactWorkspace {
   Array<uint32_t> stamps;        // per triangle: the last gather that listed it
   Array<uint32_t> candidates;    // the last gather's triangles
   uint32_t stamp = 0;
+  // This pass's work: every triangle pair a search or a push visits spends one. A surface
+  // tangled over itself would make the pass quadratic (all boxes meeting all boxes); past
+  // kContactBudgetPasses × pair_visit_budget the pass stops and moves nothing.
+  PairBudget budget;
 };
 
 // Throws std::bad_alloc.
@@ -100,6 +108,7 @@ ContactWorkspace make_contact_workspace(const ContactMesh& mesh, const Allocator
 struct ContactStats {
   uint32_t pairs_before = 0;  // intersecting pairs found by the first detection
   uint32_t moved = 0;         // welded vertices moved
+  bool over_budget = false;   // the pass ran out of its work budget and moved nothing
 };
 
 // The pass on `dense_positions` (per dense vertex, in place). Deterministic.

@@ -2,7 +2,8 @@
 // over itself (every triangle's box meets nearly every other's, as corrupt or degenerate data
 // gives) ends the search at pair_visit_budget (triangle_bvh.h) candidate pairs and outputs
 // exactly LBS; a tangle within the budget is resolved as always, to no pair LBS lacks. The
-// contact mesh's rest-pair search (at load) has the same bound.
+// contact mesh's rest-pair search (at load) has the same bound, and the contact pass a
+// multiple of it.
 #include "asset.h"
 #include "brute_force_pairs.h"
 #include "contact.h"
@@ -122,4 +123,17 @@ TEST_CASE("contact mesh: the rest pairs are found within the budget, and a mesh 
     CHECK(stats.moved == 0);
     CHECK(positions == tangle.thrown);
   }
+}
+
+TEST_CASE("contact pass: a tangle beyond the work budget stops and leaves the output as it was") {
+  const uint32_t count = 1200;
+  const Tangle tangle(count);  // not tangled at rest: its rest pairs are found, none
+  REQUIRE(!tangle.mesh.tangled_at_rest);
+  ContactWorkspace ws = make_contact_workspace(tangle.mesh, AllocatorRef{});
+  std::vector<glm::vec3> positions = tangle.thrown;
+  const ContactStats stats = resolve_contacts(tangle.mesh, 1.0f, positions.data(), uint32_t(positions.size()), ws);
+  CHECK(stats.over_budget);
+  CHECK(ws.budget.left == 0);
+  CHECK(stats.moved == 0);
+  CHECK(positions == tangle.thrown);
 }

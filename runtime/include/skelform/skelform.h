@@ -279,7 +279,9 @@ SF_API sf_result sf_instance_set_handle_targets(sf_instance* instance, const flo
  * mesh (welded by rest position) and the vertices skelform may move (skelform weight above 0)
  * moved out of each other, each move kept only where the number of intersecting triangle pairs
  * around the vertex does not grow. It costs a broad phase over every dense triangle per
- * evaluation, which is why it is opt-in. It never feeds the fairing's warm start. Turning it
+ * evaluation, which is why it is opt-in; its work is bounded, linear in the triangles, and a
+ * surface tangled over itself beyond that bound is left as skelform made it (the guards still
+ * apply). It never feeds the fairing's warm start. Turning it
  * on allocates the pass's scratch; turning it off frees it. Normals and tangents are left as
  * the displacement computed them. `enabled` is 0 or 1. */
 SF_API sf_result sf_instance_set_contacts(sf_instance* instance, uint32_t enabled);
