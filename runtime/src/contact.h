@@ -26,13 +26,7 @@ namespace skelform::runtime {
 // (sf_instance_set_contacts).
 struct ContactMesh {
   explicit ContactMesh(const AllocatorRef& a)
-      : weld(CallbackAllocator<uint32_t>(a)),
-        representative(CallbackAllocator<uint32_t>(a)),
-        triangles(CallbackAllocator<uint32_t>(a)),
-        incident_offsets(CallbackAllocator<uint32_t>(a)),
-        incident(CallbackAllocator<uint32_t>(a)),
-        hierarchy(a),
-        rest_pairs(CallbackAllocator<uint64_t>(a)) {}
+      : weld(a), representative(a), triangles(a), incident_offsets(a), incident(a), hierarchy(a), rest_pairs(a) {}
   uint32_t vertex_count = 0;         // welded vertices
   uint32_t triangle_count = 0;       // welded triangles without a repeated corner
   Array<uint32_t> weld;              // per dense vertex: its welded vertex (same rest position, bit for bit)
@@ -71,18 +65,18 @@ ContactMesh build_contact_mesh(const glm::vec3* rest_positions, uint32_t vertex_
 // Scratch of one instance, sized once for its mesh (make_contact_workspace).
 struct ContactWorkspace {
   explicit ContactWorkspace(const AllocatorRef& a)
-      : positions(CallbackAllocator<glm::vec3>(a)),
-        start(CallbackAllocator<glm::vec3>(a)),
-        state(CallbackAllocator<uint8_t>(a)),
-        active(CallbackAllocator<uint32_t>(a)),
-        cell_offsets(CallbackAllocator<uint32_t>(a)),
-        entries(CallbackAllocator<uint32_t>(a)),
-        oversized(CallbackAllocator<uint32_t>(a)),
-        ranges(CallbackAllocator<int16_t>(a)),
-        boxes(CallbackAllocator<float>(a)),
-        normals(CallbackAllocator<glm::vec3>(a)),
-        stamps(CallbackAllocator<uint32_t>(a)),
-        candidates(CallbackAllocator<uint32_t>(a)) {}
+      : positions(a),
+        start(a),
+        state(a),
+        active(a),
+        cell_offsets(a),
+        entries(a),
+        oversized(a),
+        ranges(a),
+        boxes(a),
+        normals(a),
+        stamps(a),
+        candidates(a) {}
   Array<glm::vec3> positions;    // welded positions
   Array<glm::vec3> start;        // position of each active vertex when the pass began
   Array<uint8_t> state;          // per welded vertex: active (in a detected pair), moved

@@ -31,13 +31,13 @@ namespace skelform::runtime {
 // Connectivity of the control mesh, built once per asset; immutable afterwards.
 struct FairingTopology {
   explicit FairingTopology(const AllocatorRef& a)
-      : triangle_indices(CallbackAllocator<uint32_t>(a)),
-        neighbour_offsets(CallbackAllocator<uint32_t>(a)),
-        neighbours(CallbackAllocator<uint32_t>(a)),
-        incident_offsets(CallbackAllocator<uint32_t>(a)),
-        incident_triangles(CallbackAllocator<uint32_t>(a)),
-        fixed(CallbackAllocator<uint8_t>(a)),
-        bi_umbrella_diagonal(CallbackAllocator<float>(a)) {}
+      : triangle_indices(a),
+        neighbour_offsets(a),
+        neighbours(a),
+        incident_offsets(a),
+        incident_triangles(a),
+        fixed(a),
+        bi_umbrella_diagonal(a) {}
 
   uint32_t vertex_count = 0;
   uint32_t triangle_count = 0;
@@ -108,29 +108,29 @@ struct FairingParams {
 // Every buffer fair_run() needs, sized once for a topology and a grid resolution. Per instance.
 struct FairingWorkspace {
   explicit FairingWorkspace(const AllocatorRef& a)
-      : umbrella(CallbackAllocator<glm::vec3>(a)),
-        bi_umbrella(CallbackAllocator<glm::vec3>(a)),
-        triangle_force(CallbackAllocator<glm::vec3>(a)),
-        displacement(CallbackAllocator<glm::vec3>(a)),
-        start_positions(CallbackAllocator<glm::vec3>(a)),
-        smoothing_weight(CallbackAllocator<float>(a)),
-        tangential_weight(CallbackAllocator<float>(a)),
-        force_direction(CallbackAllocator<glm::vec3>(a)),
-        cell_offsets(CallbackAllocator<uint32_t>(a)),
-        cell_vertices(CallbackAllocator<uint32_t>(a)),
-        vertex_cell(CallbackAllocator<uint32_t>(a)),
-        cell_x(CallbackAllocator<float>(a)),
-        cell_y(CallbackAllocator<float>(a)),
-        cell_z(CallbackAllocator<float>(a)),
-        cell_rr(CallbackAllocator<float>(a)),
-        target_umbrella(CallbackAllocator<glm::vec3>(a)),
-        target_bi_umbrella(CallbackAllocator<glm::vec3>(a)),
-        iteration_start(CallbackAllocator<glm::vec3>(a)),
-        minimiser(CallbackAllocator<uint32_t>(a)),
-        next_minimiser(CallbackAllocator<uint32_t>(a)),
-        reference_bi(CallbackAllocator<glm::vec3>(a)),
-        bi_reference(CallbackAllocator<glm::vec3>(a)),
-        hull_case(CallbackAllocator<uint8_t>(a)) {}
+      : umbrella(a),
+        bi_umbrella(a),
+        triangle_force(a),
+        displacement(a),
+        start_positions(a),
+        smoothing_weight(a),
+        tangential_weight(a),
+        force_direction(a),
+        cell_offsets(a),
+        cell_vertices(a),
+        vertex_cell(a),
+        cell_x(a),
+        cell_y(a),
+        cell_z(a),
+        cell_rr(a),
+        target_umbrella(a),
+        target_bi_umbrella(a),
+        iteration_start(a),
+        minimiser(a),
+        next_minimiser(a),
+        reference_bi(a),
+        bi_reference(a),
+        hull_case(a) {}
 
   uint32_t vertex_count = 0;
   uint32_t triangle_count = 0;
@@ -177,14 +177,7 @@ struct FairingWorkspace {
 // from rest the flows act as the paper's on what the pose changed. Built once per asset by make_fairing_rest().
 struct FairingRest {
   explicit FairingRest(const AllocatorRef& a)
-      : umbrella(CallbackAllocator<glm::vec3>(a)),
-        bi_umbrella(CallbackAllocator<glm::vec3>(a)),
-        triangle_level(CallbackAllocator<float>(a)),
-        gap(CallbackAllocator<float>(a)),
-        edge_2d(CallbackAllocator<glm::vec2>(a)),
-        mean_edge(CallbackAllocator<float>(a)),
-        positions(CallbackAllocator<glm::vec3>(a)),
-        skeletal(CallbackAllocator<glm::vec3>(a)) {}
+      : umbrella(a), bi_umbrella(a), triangle_level(a), gap(a), edge_2d(a), mean_edge(a), positions(a), skeletal(a) {}
   Array<glm::vec3> umbrella;     // U(M_rest) per vertex, in its rest local frame (fairing_frames)
   Array<glm::vec3> bi_umbrella;  // U²(M_rest) per vertex, in its rest local frame
   Array<float> triangle_level;   // E_T(C) of every triangle at rest

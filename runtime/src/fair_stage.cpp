@@ -19,13 +19,13 @@ namespace skelform::runtime {
 
 FairingState::FairingState(const AllocatorRef& allocator)
     : workspace(allocator),
-      frames(CallbackAllocator<glm::mat3>(allocator)),
-      offset(CallbackAllocator<glm::vec3>(allocator)),
-      start(CallbackAllocator<glm::vec3>(allocator)),
-      shape(CallbackAllocator<glm::vec3>(allocator)),
-      reference_umbrella(CallbackAllocator<glm::vec3>(allocator)),
-      mean_edge(CallbackAllocator<float>(allocator)),
-      fixed(CallbackAllocator<uint8_t>(allocator)) {}
+      frames(allocator),
+      offset(allocator),
+      start(allocator),
+      shape(allocator),
+      reference_umbrella(allocator),
+      mean_edge(allocator),
+      fixed(allocator) {}
 
 void FairingState::allocate(const Deformable& d, const AllocatorRef& allocator) {
   const uint32_t n = d.control_vertex_count;

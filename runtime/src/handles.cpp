@@ -63,21 +63,21 @@ enum VertexRole : uint8_t {
 
 struct HandleSystem {
   explicit HandleSystem(const AllocatorRef& a)
-      : vertex_role(CallbackAllocator<uint8_t>(a)),
-        vertex_ref(CallbackAllocator<uint32_t>(a)),
-        handle_slot(CallbackAllocator<uint32_t>(a)),
-        slot_weight(CallbackAllocator<double>(a)),
-        coupling_offsets(CallbackAllocator<uint32_t>(a)),
-        coupling_slot(CallbackAllocator<uint32_t>(a)),
-        coupling_weight(CallbackAllocator<double>(a)),
-        permutation(CallbackAllocator<uint32_t>(a)),
-        factor_offsets(CallbackAllocator<uint32_t>(a)),
-        factor_rows(CallbackAllocator<uint32_t>(a)),
-        factor_values(CallbackAllocator<double>(a)),
-        factor_diagonal(CallbackAllocator<double>(a)),
-        basis(CallbackAllocator<double>(a)),
-        slot_displacement(CallbackAllocator<double>(a)),
-        work(CallbackAllocator<double>(a)) {}
+      : vertex_role(a),
+        vertex_ref(a),
+        handle_slot(a),
+        slot_weight(a),
+        coupling_offsets(a),
+        coupling_slot(a),
+        coupling_weight(a),
+        permutation(a),
+        factor_offsets(a),
+        factor_rows(a),
+        factor_values(a),
+        factor_diagonal(a),
+        basis(a),
+        slot_displacement(a),
+        work(a) {}
 
   uint32_t vertex_count = 0;  // the deformable's control_vertex_count
   uint32_t free_count = 0;    // unknowns of the reduced system

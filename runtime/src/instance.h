@@ -51,12 +51,7 @@ enum class Driver : uint8_t {
 // scale and shear have no single radius scale: |det|^(1/3) is the volume-preserving mean.
 struct JointTransforms {
   explicit JointTransforms(const AllocatorRef& a)
-      : affine(CallbackAllocator<JointAffine>(a)),
-        dual_quaternion(CallbackAllocator<JointDualQuaternion>(a)),
-        skin_affine(CallbackAllocator<JointAffine>(a)),
-        skin_dual_quaternion(CallbackAllocator<JointDualQuaternion>(a)),
-        scale_ratio(CallbackAllocator<float>(a)),
-        matrices(CallbackAllocator<glm::mat4>(a)) {}
+      : affine(a), dual_quaternion(a), skin_affine(a), skin_dual_quaternion(a), scale_ratio(a), matrices(a) {}
   // The caller's matrices as given: the LBS/DQS baselines and skelform's rigid parts.
   Array<JointAffine> affine;
   Array<JointDualQuaternion> dual_quaternion;
@@ -77,10 +72,7 @@ void prepare_joints(const Deformable& d, const glm::mat4* matrices, JointTransfo
 // targets. The system gets one displacement per caller handle; handles collapsing onto one
 // control vertex (a glTF seam) are averaged there by handles.h.
 struct HandleState {
-  explicit HandleState(const AllocatorRef& a)
-      : original(CallbackAllocator<uint32_t>(a)),
-        targets(CallbackAllocator<glm::vec3>(a)),
-        displacements(CallbackAllocator<glm::vec3>(a)) {}
+  explicit HandleState(const AllocatorRef& a) : original(a), targets(a), displacements(a) {}
   HandleSystem* system = nullptr;
   Array<uint32_t> original;        // per handle: original (dense) vertex id
   Array<glm::vec3> targets;        // per handle, as last set

@@ -57,23 +57,23 @@ constexpr uint32_t kVolumeAttempts = 3;  // volume shares tried before the last 
 // Scratch of one instance (make_guard_workspace), sized for its deformable's welded mesh.
 struct GuardWorkspace {
   explicit GuardWorkspace(const AllocatorRef& a)
-      : factor(CallbackAllocator<float>(a)),
-        positions(CallbackAllocator<glm::vec3>(a)),
-        moved(CallbackAllocator<uint8_t>(a)),
-        flagged(CallbackAllocator<uint8_t>(a)),
-        changed(CallbackAllocator<uint8_t>(a)),
-        flagged_list(CallbackAllocator<uint32_t>(a)),
-        ramp(CallbackAllocator<float>(a)),
-        lowered(CallbackAllocator<uint8_t>(a)),
-        corrected_list(CallbackAllocator<uint32_t>(a)),
-        lowered_list(CallbackAllocator<uint32_t>(a)),
-        tested(CallbackAllocator<uint8_t>(a)),
-        test_list(CallbackAllocator<uint32_t>(a)),
+      : factor(a),
+        positions(a),
+        moved(a),
+        flagged(a),
+        changed(a),
+        flagged_list(a),
+        ramp(a),
+        lowered(a),
+        corrected_list(a),
+        lowered_list(a),
+        tested(a),
+        test_list(a),
         boxes(a),
         reach_boxes(a),
-        node_boxes(CallbackAllocator<float>(a)),
-        node_flags(CallbackAllocator<uint8_t>(a)),
-        leaf_flags(CallbackAllocator<uint32_t>(a)) {}
+        node_boxes(a),
+        node_flags(a),
+        leaf_flags(a) {}
   Array<float> factor;             // λ per welded vertex
   Array<glm::vec3> positions;      // x per welded vertex
   Array<uint8_t> moved;            // per welded vertex: x differs from L

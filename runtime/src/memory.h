@@ -36,7 +36,8 @@ struct CallbackAllocator {
   AllocatorRef ref;
 
   CallbackAllocator() = default;
-  explicit CallbackAllocator(const AllocatorRef& r) : ref(r) {}
+  // Implicit, so that an Array member is initialised from the allocator alone: `x(allocator)`.
+  CallbackAllocator(const AllocatorRef& r) : ref(r) {}
   template <class U>
   CallbackAllocator(const CallbackAllocator<U>& other) : ref(other.ref) {}
 

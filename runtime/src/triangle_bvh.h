@@ -36,11 +36,7 @@ constexpr uint32_t kLeafTriangles = 16;
 constexpr uint32_t kMaxHierarchyDepth = 64;
 
 struct TriangleHierarchy {
-  explicit TriangleHierarchy(const AllocatorRef& a)
-      : nodes(CallbackAllocator<HierarchyNode>(a)),
-        order(CallbackAllocator<uint32_t>(a)),
-        slot(CallbackAllocator<uint32_t>(a)),
-        corners(CallbackAllocator<uint32_t>(a)) {}
+  explicit TriangleHierarchy(const AllocatorRef& a) : nodes(a), order(a), slot(a), corners(a) {}
   Array<HierarchyNode> nodes;
   Array<uint32_t> order;  // triangle indices, leaf by leaf: position i is "slot" i
   Array<uint32_t> slot;   // per triangle: its slot (order's inverse)
