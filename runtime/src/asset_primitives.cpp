@@ -45,6 +45,25 @@ int attribute_accessor(const tinygltf::Primitive& primitive, const std::string& 
   return found == primitive.attributes.end() ? -1 : found->second;
 }
 
+// An optional per-vertex attribute (NORMAL, TANGENT) of a primitive appended to `out` in
+// float, read with `read` (gltf_read.h); `vertex_count` zeros when the primitive has none.
+// True when it has one.
+template <class Float, class Double>
+bool append_optional_attribute(const tinygltf::Model& model, const tinygltf::Primitive& primitive, const char* semantic,
+                               size_t vertex_count, const std::string& what,
+                               std::vector<Double> (*read)(const tinygltf::Model&, int, const std::string&),
+                               Array<Float>& out) {
+  const int accessor = attribute_accessor(primitive, semantic);
+  if (accessor < 0) {
+    out.resize(out.size() + vertex_count, Float(0.0f));
+    return false;
+  }
+  const std::vector<Double> values = read(model, accessor, what + " " + semantic);
+  if (values.size() != vertex_count) invalid(what, std::string(semantic) + " count differs from POSITION count");
+  for (const Double& value : values) out.push_back(Float(value));
+  return true;
+}
+
 // Entry `p` of the deformable's primitive list: a primitive of its mesh, not listed before.
 size_t listed_primitive(const tinygltf::Value& item, size_t p, const tinygltf::Mesh& mesh, int mesh_index,
                         const std::string& prefix, std::vector<bool>& seen) {
@@ -87,24 +106,10 @@ void read_vertex_attributes(const tinygltf::Model& model, const tinygltf::Primit
     weight_override.insert(weight_override.end(), vertex_count, -1.0f);
   }
 
-  const int normal_accessor = attribute_accessor(primitive, "NORMAL");
-  record.has_normals = normal_accessor >= 0;
-  if (record.has_normals) {
-    const std::vector<glm::dvec3> normals = gltf::read_vec3(model, normal_accessor, what + " NORMAL");
-    if (normals.size() != vertex_count) invalid(what, "NORMAL count differs from POSITION count");
-    for (const glm::dvec3& normal : normals) deformable.rest_normals.push_back(glm::vec3(normal));
-  } else {
-    deformable.rest_normals.resize(deformable.rest_normals.size() + vertex_count, glm::vec3(0.0f));
-  }
-  const int tangent_accessor = attribute_accessor(primitive, "TANGENT");
-  record.has_tangents = tangent_accessor >= 0;
-  if (record.has_tangents) {
-    const std::vector<glm::dvec4> tangents = gltf::read_vec4(model, tangent_accessor, what + " TANGENT");
-    if (tangents.size() != vertex_count) invalid(what, "TANGENT count differs from POSITION count");
-    for (const glm::dvec4& tangent : tangents) deformable.rest_tangents.push_back(glm::vec4(tangent));
-  } else {
-    deformable.rest_tangents.resize(deformable.rest_tangents.size() + vertex_count, glm::vec4(0.0f));
-  }
+  record.has_normals = append_optional_attribute(model, primitive, "NORMAL", vertex_count, what, gltf::read_vec3,
+                                                 deformable.rest_normals);
+  record.has_tangents = append_optional_attribute(model, primitive, "TANGENT", vertex_count, what, gltf::read_vec4,
+                                                  deformable.rest_tangents);
 }
 
 // The primitive's triangles (its indices, or its vertices in order) into dense_triangles.
