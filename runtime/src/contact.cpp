@@ -405,8 +405,7 @@ ContactStats resolve_contacts(const ContactMesh& mesh, float scale, glm::vec3* d
   for (uint32_t w = 0; w < mesh.vertex_count; ++w) x[w] = dense_positions[mesh.representative[w]];
   Grid grid(mesh, gap, ws);
   if (!grid.build(cap)) return stats;  // a non-finite position: leave the output as it is
-  ws.budget = PairBudget(mesh.triangle_count);
-  ws.budget.left *= kContactBudgetPasses;
+  ws.budget = PairBudget(mesh.triangle_count, kContactBudgetPasses);
   auto spent = [&] {
     stats.over_budget = ws.budget.left == 0;  // then move nothing: the counts were cut short
     return stats.over_budget;

@@ -174,13 +174,13 @@ constexpr uint64_t kPairVisitsPerTriangle = 64;
 constexpr uint64_t kPairVisitsFloor = uint64_t(1) << 16;
 inline uint64_t pair_visit_budget(uint32_t triangles) { return kPairVisitsPerTriangle * triangles + kPairVisitsFloor; }
 
-// One search's allowance of candidate pairs: the visitor spends one per pair and stops the
-// search when spend() says the budget is used up.
+// The allowance of candidate pairs of `searches` such searches: the visitor spends one per pair
+// and stops when spend() says the budget is used up.
 struct PairBudget {
   uint64_t left = 0;
 
   PairBudget() = default;
-  explicit PairBudget(uint32_t triangles) : left(pair_visit_budget(triangles)) {}
+  explicit PairBudget(uint32_t triangles, uint64_t searches = 1) : left(searches * pair_visit_budget(triangles)) {}
   bool spend() {
     if (left == 0) return false;
     --left;
