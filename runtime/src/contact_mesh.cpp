@@ -121,7 +121,7 @@ void find_rest_pairs(const glm::vec3* rest_positions, const AllocatorRef& alloca
   // The pairs that intersect at rest, by the exact test, through the hierarchy.
   Array<float> node_boxes{CallbackAllocator<float>(allocator)};
   Array<uint8_t> wanted{CallbackAllocator<uint8_t>(allocator)}, node_wanted{CallbackAllocator<uint8_t>(allocator)};
-  Array<uint32_t> leaf_wanted{CallbackAllocator<uint32_t>(allocator)};
+  Array<LeafLanes> leaf_wanted{CallbackAllocator<LeafLanes>(allocator)};
   SlotBoxes boxes(allocator);
   node_boxes.resize(6 * mesh.hierarchy.nodes.size());
   wanted.assign(mesh.triangle_count, 1);

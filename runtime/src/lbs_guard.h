@@ -90,7 +90,7 @@ struct GuardWorkspace {
   SlotBoxes reach_boxes;           // per triangle (by slot): its box over the later rounds (x and L)
   Array<float> node_boxes;         // ContactMesh::hierarchy refitted to boxes, then reach_boxes
   Array<uint8_t> node_flags;       // per node: it holds a triangle of the first round
-  Array<uint32_t> leaf_flags;      // per leaf node: its lanes holding one
+  Array<LeafLanes> leaf_flags;     // per leaf node: its lanes holding one
   bool reach_ready = false;        // reach_boxes hold every position to come this evaluation
   PairBudget budget;               // this evaluation's candidate pairs
   bool over_budget = false;        // the last evaluation ran out of it (and is LBS)

@@ -32,8 +32,11 @@ struct HierarchyNode {
   uint32_t count = 0;
 };
 
-constexpr uint32_t kLeafTriangles = 16;
+// Triangles per leaf, at most: the searches cost mostly their descent (docs/tuning.md).
+constexpr uint32_t kLeafTriangles = 32;
 constexpr uint32_t kMaxHierarchyDepth = 64;
+// A leaf's lanes as bits of one word.
+using LeafLanes = uint64_t;
 
 struct TriangleHierarchy {
   explicit TriangleHierarchy(const AllocatorRef& a) : nodes(a), order(a), slot(a), corners(a) {}
@@ -222,7 +225,7 @@ bool query_triangle_hierarchy(const TriangleHierarchy& h, const float* node_boxe
     if (node.count > 0) {
 #if defined(__SSE2__)
       // The leaf's lanes four at a time (lanes past the leaf are masked off).
-      uint32_t mask = 0;
+      LeafLanes mask = 0;
       const float* lo_x = p + node.first;
       const __m128 lx = _mm_set1_ps(box[0]), ly = _mm_set1_ps(box[1]), lz = _mm_set1_ps(box[2]);
       const __m128 hx = _mm_set1_ps(box[3]), hy = _mm_set1_ps(box[4]), hz = _mm_set1_ps(box[5]);
@@ -233,11 +236,11 @@ bool query_triangle_hierarchy(const TriangleHierarchy& h, const float* node_boxe
         meet = _mm_and_ps(meet, _mm_cmple_ps(_mm_loadu_ps(lo_x + bs + g), hy));
         meet = _mm_and_ps(meet, _mm_cmple_ps(lz, _mm_loadu_ps(lo_x + 5 * bs + g)));
         meet = _mm_and_ps(meet, _mm_cmple_ps(_mm_loadu_ps(lo_x + 2 * bs + g), hz));
-        mask |= uint32_t(_mm_movemask_ps(meet)) << g;
+        mask |= LeafLanes(_mm_movemask_ps(meet)) << g;
       }
-      mask &= (1u << node.count) - 1u;
+      mask &= (LeafLanes(1) << node.count) - 1;
       while (mask) {
-        const uint32_t j = uint32_t(__builtin_ctz(mask));
+        const uint32_t j = uint32_t(__builtin_ctzll(mask));
         mask &= mask - 1;
         if (!detail::visit_goes_on(visit, h.order[node.first + j])) return false;
       }
@@ -260,12 +263,12 @@ namespace detail {
 // Per node, whether it holds a wanted triangle (children before parents: nodes are stored
 // parents first), and per leaf its wanted lanes.
 inline void mark_wanted(const TriangleHierarchy& h, const uint8_t* wanted, uint8_t* node_wanted,
-                        uint32_t* leaf_wanted) {
+                        LeafLanes* leaf_wanted) {
   for (size_t n = h.nodes.size(); n-- > 0;) {
     const HierarchyNode node = h.nodes[n];
-    uint32_t lanes = 0;
+    LeafLanes lanes = 0;
     if (node.count > 0) {
-      for (uint32_t i = 0; i < node.count; ++i) lanes |= (wanted[h.order[node.first + i]] ? 1u : 0u) << i;
+      for (uint32_t i = 0; i < node.count; ++i) lanes |= LeafLanes(wanted[h.order[node.first + i]] ? 1 : 0) << i;
       node_wanted[n] = lanes ? 1 : 0;
     } else {
       node_wanted[n] = node_wanted[node.first] | node_wanted[node.first + 1];
@@ -285,7 +288,7 @@ struct LeafPairInput {
   size_t corner_stride;     // TriangleHierarchy::slot_stride()
 };
 using LeafPairKernel = void (*)(const LeafPairInput& in, uint32_t first_a, uint32_t count_a, uint32_t first_b,
-                                const float* node_box_b, uint32_t* masks);
+                                const float* node_box_b, LeafLanes* masks);
 
 inline bool box_meets_node(const LeafPairInput& in, uint32_t i, const float* node) {
   const float* p = in.planes + i;
@@ -296,7 +299,7 @@ inline bool box_meets_node(const LeafPairInput& in, uint32_t i, const float* nod
 
 #if defined(__SSE2__)
 inline void leaf_pair_sse2(const LeafPairInput& in, uint32_t first_a, uint32_t count_a, uint32_t first_b,
-                           const float* node_box_b, uint32_t* masks) {
+                           const float* node_box_b, LeafLanes* masks) {
   const size_t bs = in.box_stride, cs = in.corner_stride;
   const float* lo_x = in.planes + first_b;
   for (uint32_t i = 0; i < count_a; ++i) {
@@ -308,7 +311,7 @@ inline void leaf_pair_sse2(const LeafPairInput& in, uint32_t first_a, uint32_t c
     const __m128 hx = _mm_set1_ps(pa[3 * bs]), hy = _mm_set1_ps(pa[4 * bs]), hz = _mm_set1_ps(pa[5 * bs]);
     const __m128i c0 = _mm_set1_epi32(int32_t(in.corners[a])), c1 = _mm_set1_epi32(int32_t(in.corners[cs + a])),
                   c2 = _mm_set1_epi32(int32_t(in.corners[2 * cs + a]));
-    uint32_t mask = 0;
+    LeafLanes mask = 0;
     for (size_t g = 0; g < kLeafTriangles; g += 4) {
       __m128 meet =
           _mm_and_ps(_mm_cmple_ps(lx, _mm_loadu_ps(lo_x + 3 * bs + g)), _mm_cmple_ps(_mm_loadu_ps(lo_x + g), hx));
@@ -322,7 +325,7 @@ inline void leaf_pair_sse2(const LeafPairInput& in, uint32_t first_a, uint32_t c
         shared = _mm_or_si128(shared, _mm_or_si128(_mm_cmpeq_epi32(lane, c0),
                                                    _mm_or_si128(_mm_cmpeq_epi32(lane, c1), _mm_cmpeq_epi32(lane, c2))));
       }
-      mask |= uint32_t(_mm_movemask_ps(_mm_andnot_ps(_mm_castsi128_ps(shared), meet))) << g;
+      mask |= LeafLanes(_mm_movemask_ps(_mm_andnot_ps(_mm_castsi128_ps(shared), meet))) << g;
     }
     masks[i] = mask;
   }
@@ -331,7 +334,8 @@ inline void leaf_pair_sse2(const LeafPairInput& in, uint32_t first_a, uint32_t c
 
 #if defined(SKELFORM_HIERARCHY_AVX2)
 __attribute__((target("avx2"))) inline void leaf_pair_avx2(const LeafPairInput& in, uint32_t first_a, uint32_t count_a,
-                                                           uint32_t first_b, const float* node_box_b, uint32_t* masks) {
+                                                           uint32_t first_b, const float* node_box_b,
+                                                           LeafLanes* masks) {
   const size_t bs = in.box_stride, cs = in.corner_stride;
   const float* lo_x = in.planes + first_b;
   for (uint32_t i = 0; i < count_a; ++i) {
@@ -343,7 +347,7 @@ __attribute__((target("avx2"))) inline void leaf_pair_avx2(const LeafPairInput& 
     const __m256 hx = _mm256_set1_ps(pa[3 * bs]), hy = _mm256_set1_ps(pa[4 * bs]), hz = _mm256_set1_ps(pa[5 * bs]);
     const __m256i c0 = _mm256_set1_epi32(int32_t(in.corners[a])), c1 = _mm256_set1_epi32(int32_t(in.corners[cs + a])),
                   c2 = _mm256_set1_epi32(int32_t(in.corners[2 * cs + a]));
-    uint32_t mask = 0;
+    LeafLanes mask = 0;
     for (size_t g = 0; g < kLeafTriangles; g += 8) {
       __m256 meet = _mm256_and_ps(_mm256_cmp_ps(lx, _mm256_loadu_ps(lo_x + 3 * bs + g), _CMP_LE_OQ),
                                   _mm256_cmp_ps(_mm256_loadu_ps(lo_x + g), hx, _CMP_LE_OQ));
@@ -358,7 +362,7 @@ __attribute__((target("avx2"))) inline void leaf_pair_avx2(const LeafPairInput& 
             shared, _mm256_or_si256(_mm256_cmpeq_epi32(lane, c0),
                                     _mm256_or_si256(_mm256_cmpeq_epi32(lane, c1), _mm256_cmpeq_epi32(lane, c2))));
       }
-      mask |= uint32_t(_mm256_movemask_ps(_mm256_andnot_ps(_mm256_castsi256_ps(shared), meet))) << g;
+      mask |= LeafLanes(_mm256_movemask_ps(_mm256_andnot_ps(_mm256_castsi256_ps(shared), meet))) << g;
     }
     masks[i] = mask;
   }
@@ -366,7 +370,7 @@ __attribute__((target("avx2"))) inline void leaf_pair_avx2(const LeafPairInput& 
 #endif
 
 inline void leaf_pair_portable(const LeafPairInput& in, uint32_t first_a, uint32_t count_a, uint32_t first_b,
-                               const float* node_box_b, uint32_t* masks) {
+                               const float* node_box_b, LeafLanes* masks) {
   const size_t bs = in.box_stride, cs = in.corner_stride;
   const float* p = in.planes;
   for (uint32_t i = 0; i < count_a; ++i) {
@@ -380,7 +384,7 @@ inline void leaf_pair_portable(const LeafPairInput& in, uint32_t first_a, uint32
       bool shared = false;
       for (size_t k = 0; k < 3; ++k)
         for (size_t j = 0; j < 3; ++j) shared |= in.corners[k * cs + b] == in.corners[j * cs + a];
-      masks[i] |= uint32_t(meet && !shared) << g;
+      masks[i] |= LeafLanes(meet && !shared) << g;
     }
   }
 }
@@ -412,23 +416,24 @@ inline LeafPairKernel leaf_pair_kernel() {
 // bool stops the search by returning false (a work budget); the call then returns false.
 template <class Visit>
 bool self_pairs_triangle_hierarchy(const TriangleHierarchy& h, const float* node_boxes, const SlotBoxes& boxes,
-                                   const uint8_t* wanted, uint8_t* node_wanted, uint32_t* leaf_wanted, Visit&& visit) {
-  static_assert(kLeafTriangles % 4 == 0 && kLeafTriangles < 32, "a leaf: groups of four lanes, its lanes one word");
+                                   const uint8_t* wanted, uint8_t* node_wanted, LeafLanes* leaf_wanted, Visit&& visit) {
+  static_assert(kLeafTriangles % 4 == 0 && kLeafTriangles % 8 == 0 && kLeafTriangles < 64,
+                "a leaf: groups of eight lanes, its lanes one word");
   if (h.nodes.empty()) return true;
   detail::mark_wanted(h, wanted, node_wanted, leaf_wanted);
   const detail::LeafPairInput input{boxes.planes.data(), boxes.stride, h.corners.data(), h.slot_stride()};
   const detail::LeafPairKernel kernel = detail::leaf_pair_kernel();
-  uint32_t masks[kLeafTriangles];
+  LeafLanes masks[kLeafTriangles];
   // Leaf a's triangles against the lanes of leaf b: lane j of triangle i's row when bit j of
   // allowed(i) is set. False when the visitor stopped.
   auto leaves = [&](uint32_t a, uint32_t b, auto&& allowed) {
     const HierarchyNode na = h.nodes[a], nb = h.nodes[b];
     kernel(input, na.first, na.count, nb.first, node_boxes + 6 * size_t(b), masks);
     for (uint32_t i = 0; i < na.count; ++i) {
-      uint32_t mask = masks[i] & allowed(i);
+      LeafLanes mask = masks[i] & allowed(i);
       const uint32_t s = h.order[na.first + i];
       while (mask) {
-        const uint32_t j = uint32_t(__builtin_ctz(mask));
+        const uint32_t j = uint32_t(__builtin_ctzll(mask));
         mask &= mask - 1;
         if (!detail::visit_goes_on(visit, s, h.order[nb.first + j])) return false;
       }
@@ -448,10 +453,10 @@ bool self_pairs_triangle_hierarchy(const TriangleHierarchy& h, const float* node
     const HierarchyNode na = h.nodes[p.a], nb = h.nodes[p.b];
     if (p.a == p.b) {
       if (na.count > 0) {
-        const uint32_t lanes = (1u << na.count) - 1u, want = leaf_wanted[p.a];
+        const LeafLanes lanes = (LeafLanes(1) << na.count) - 1, want = leaf_wanted[p.a];
         const bool goes_on = leaves(p.a, p.a, [&](uint32_t i) {
-          const uint32_t later = lanes & ~((2u << i) - 1u);  // the lanes after i: each pair once
-          return (want >> i) & 1u ? later : later & want;
+          const LeafLanes later = lanes & ~((LeafLanes(2) << i) - 1);  // the lanes after i: each pair once
+          return (want >> i) & 1 ? later : later & want;
         });
         if (!goes_on) return false;
       } else {
@@ -463,8 +468,8 @@ bool self_pairs_triangle_hierarchy(const TriangleHierarchy& h, const float* node
     }
     if (!hierarchy_boxes_meet(node_boxes + 6 * size_t(p.a), node_boxes + 6 * size_t(p.b))) continue;
     if (na.count > 0 && nb.count > 0) {
-      const uint32_t lanes = (1u << nb.count) - 1u, want_a = leaf_wanted[p.a], want_b = leaf_wanted[p.b];
-      if (!leaves(p.a, p.b, [&](uint32_t i) { return (want_a >> i) & 1u ? lanes : lanes & want_b; })) return false;
+      const LeafLanes lanes = (LeafLanes(1) << nb.count) - 1, want_a = leaf_wanted[p.a], want_b = leaf_wanted[p.b];
+      if (!leaves(p.a, p.b, [&](uint32_t i) { return (want_a >> i) & 1 ? lanes : lanes & want_b; })) return false;
       continue;
     }
     // Descend the inner node; when both are, the one with the larger box.

@@ -76,7 +76,7 @@ struct Searchable {
   template <class Visit>
   bool self_pairs(const std::vector<uint8_t>& wanted, Visit&& visit) {
     std::vector<uint8_t> node_wanted(h.nodes.size());
-    std::vector<uint32_t> leaf_wanted(h.nodes.size());
+    std::vector<skelform::runtime::LeafLanes> leaf_wanted(h.nodes.size());
     return self_pairs_triangle_hierarchy(h, node_boxes.data(), slot_boxes, wanted.data(), node_wanted.data(),
                                          leaf_wanted.data(), visit);
   }
@@ -182,7 +182,7 @@ TEST_CASE("triangle hierarchy: every leaf-pair kernel gives the portable loop's 
     if (h.nodes[a].count == 0) continue;
     for (uint32_t b = 0; b < h.nodes.size(); ++b) {
       if (h.nodes[b].count == 0) continue;
-      uint32_t expected[skelform::runtime::kLeafTriangles], got[skelform::runtime::kLeafTriangles];
+      skelform::runtime::LeafLanes expected[skelform::runtime::kLeafTriangles], got[skelform::runtime::kLeafTriangles];
       detail::leaf_pair_portable(input, h.nodes[a].first, h.nodes[a].count, h.nodes[b].first,
                                  node_boxes.data() + 6 * size_t(b), expected);
       for (const auto& kernel : kernels) {
@@ -191,7 +191,7 @@ TEST_CASE("triangle hierarchy: every leaf-pair kernel gives the portable loop's 
         for (uint32_t i = 0; i < h.nodes[a].count; ++i) mismatches[kernel.first] += got[i] != expected[i] ? 1 : 0;
       }
       ++pairs;
-      for (uint32_t i = 0; i < h.nodes[a].count; ++i) bits += size_t(__builtin_popcount(expected[i]));
+      for (uint32_t i = 0; i < h.nodes[a].count; ++i) bits += size_t(__builtin_popcountll(expected[i]));
     }
   }
   for (const auto& kernel : kernels) {
