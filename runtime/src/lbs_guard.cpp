@@ -22,10 +22,6 @@ bool share_corner(const uint32_t* a, const uint32_t* b) {
          a[2] == b[1] || a[2] == b[2];
 }
 
-bool boxes_meet(const float* a, const float* b) {
-  return a[0] <= b[3] && b[0] <= a[3] && a[1] <= b[4] && b[1] <= a[4] && a[2] <= b[5] && b[2] <= a[5];
-}
-
 inline void triangle_box(const glm::vec3& p0, const glm::vec3& p1, const glm::vec3& p2, float* b) {
   const glm::vec3 lo = glm::min(glm::min(p0, p1), p2), hi = glm::max(glm::max(p0, p1), p2);
   b[0] = lo.x, b[1] = lo.y, b[2] = lo.z, b[3] = hi.x, b[4] = hi.y, b[5] = hi.z;
@@ -49,7 +45,6 @@ GuardWorkspace make_guard_workspace(const ContactMesh& mesh, const AllocatorRef&
   ws.tested.resize(triangles);
   ws.test_list.reserve(triangles);
   ws.boxes.resize(mesh.hierarchy);
-  ws.reach_boxes.resize(mesh.hierarchy);
   ws.node_boxes.resize(6 * mesh.hierarchy.nodes.size());
   ws.node_flags.resize(mesh.hierarchy.nodes.size());
   ws.leaf_flags.resize(mesh.hierarchy.nodes.size());
@@ -132,7 +127,8 @@ class GuardPass {
 
   // Round `round`'s search over ws.test_list: flags the corners of every pair LBS lacks
   // (ws.flagged_list) and sets `added`. Round one (0) meets the hierarchy against itself on
-  // the tight boxes at x; later rounds query the reach (below). False when the budget ran out.
+  // the boxes at x; later rounds query it with the boxes lower() changed, in node boxes it
+  // grew around them. False when the budget ran out.
   bool search(uint32_t round, bool& added) {
     added = false;
     if (round == 0)
@@ -142,20 +138,14 @@ class GuardPass {
                                              check_exact(t, s, added);
                                              return true;
                                            });
-    if (round == 1) {
-      if (!ws_.reach_ready) fill_reach();
-      refit_triangle_hierarchy(h_, ws_.reach_boxes, ws_.node_boxes.data());
-    }
     for (uint32_t t : ws_.test_list) {
       float bt[6];
       ws_.boxes.get(h_.slot[t], bt);
-      const bool complete = query_triangle_hierarchy(h_, ws_.node_boxes.data(), ws_.reach_boxes, bt, [&](uint32_t s) {
+      const bool complete = query_triangle_hierarchy(h_, ws_.node_boxes.data(), ws_.boxes, bt, [&](uint32_t s) {
         // Each pair once: two triangles of this round's list meet when the larger queries.
         if (s == t || (ws_.tested[s] && s > t)) return true;
         if (!spend()) return false;
-        float bs[6];
-        ws_.boxes.get(h_.slot[s], bs);
-        if (!share_corner(tri_ + 3 * size_t(t), tri_ + 3 * size_t(s)) && boxes_meet(bt, bs)) check_exact(t, s, added);
+        if (!share_corner(tri_ + 3 * size_t(t), tri_ + 3 * size_t(s))) check_exact(t, s, added);
         return true;
       });
       if (!complete) return false;
@@ -187,6 +177,7 @@ class GuardPass {
         float box[6];
         triangle_box(ws_.positions[c[0]], ws_.positions[c[1]], ws_.positions[c[2]], box);
         ws_.boxes.set(h_.slot[t], box);
+        grow_triangle_hierarchy(h_, h_.slot[t], box, ws_.node_boxes.data());
       }
     }
   }
@@ -213,24 +204,6 @@ class GuardPass {
         ws_.flagged_list.push_back(v);  // capacity for every vertex: no allocation
       }
     added = true;
-  }
-
-  // From round two on, in this evaluation, the corners only travel towards L (λ only falls):
-  // each triangle's reach is its box at x now and at L.
-  void fill_reach() {
-    ws_.reach_ready = true;
-    const size_t stride = h_.slot_stride();
-    for (uint32_t i = 0; i < mesh_.triangle_count; ++i) {
-      const uint32_t c[3] = {h_.corners[i], h_.corners[stride + i], h_.corners[2 * stride + i]};
-      float box[6], at_l[6];
-      ws_.boxes.get(i, box);
-      triangle_box(lbs_.positions[rep_[c[0]]], lbs_.positions[rep_[c[1]]], lbs_.positions[rep_[c[2]]], at_l);
-      for (int k = 0; k < 3; ++k) {
-        box[k] = std::min(box[k], at_l[k]);
-        box[3 + k] = std::max(box[3 + k], at_l[3 + k]);
-      }
-      ws_.reach_boxes.set(i, box);
-    }
   }
 
   const Deformable& d_;
@@ -397,7 +370,6 @@ void guard_and_blend(const Deformable& d, const ContactMesh& mesh, float scale, 
   const float* weight = d.skelform_weight.data();
   std::fill(ws.factor.begin(), ws.factor.end(), 1.0f);
   ws.corrected_list.clear();
-  ws.reach_ready = false;
   ws.rounds = 0;
   ws.volume_share = 1.0f;
   ws.budget = PairBudget(mesh.triangle_count);

@@ -17,9 +17,9 @@
 // half-way from its neighbours' smallest to 1), and the lowered factors are checked again.
 //
 // The triangle test is geometry::triangles_intersect (double precision, the metric's own);
-// the broad phase is the welded mesh's triangle hierarchy (triangle_bvh.h), refitted once per
-// evaluation to every triangle's reach (its boxes at x and at L), queried by the triangles
-// each round tests.
+// the broad phase is the welded mesh's triangle hierarchy (triangle_bvh.h): the first round
+// meets it with itself, refitted to the boxes at x; later rounds query it with the triangles
+// whose corners moved, its node boxes grown around their new boxes.
 // The guard's work per evaluation is bounded (pair_visit_budget, triangle_bvh.h: candidate
 // pairs its searches visit, linear in the welded triangles): a pose that would need more, a
 // surface tangled over itself as only degenerate or corrupt data gives (the corpus's worst
@@ -70,7 +70,6 @@ struct GuardWorkspace {
         tested(a),
         test_list(a),
         boxes(a),
-        reach_boxes(a),
         node_boxes(a),
         node_flags(a),
         leaf_flags(a) {}
@@ -87,11 +86,9 @@ struct GuardWorkspace {
   Array<uint8_t> tested;           // per triangle: in this round's list
   Array<uint32_t> test_list;       // the triangles this round tests
   SlotBoxes boxes;                 // per triangle (by hierarchy slot): its box at x
-  SlotBoxes reach_boxes;           // per triangle (by slot): its box over the later rounds (x and L)
-  Array<float> node_boxes;         // ContactMesh::hierarchy refitted to boxes, then reach_boxes
+  Array<float> node_boxes;         // ContactMesh::hierarchy refitted to boxes, then grown around them
   Array<uint8_t> node_flags;       // per node: it holds a triangle of the first round
   Array<LeafLanes> leaf_flags;     // per leaf node: its lanes holding one
-  bool reach_ready = false;        // reach_boxes hold every position to come this evaluation
   PairBudget budget;               // this evaluation's candidate pairs
   bool over_budget = false;        // the last evaluation ran out of it (and is LBS)
   uint32_t rounds = 0;             // of the last evaluation

@@ -39,10 +39,12 @@ constexpr uint32_t kMaxHierarchyDepth = 64;
 using LeafLanes = uint64_t;
 
 struct TriangleHierarchy {
-  explicit TriangleHierarchy(const AllocatorRef& a) : nodes(a), order(a), slot(a), corners(a) {}
+  explicit TriangleHierarchy(const AllocatorRef& a) : nodes(a), parent(a), order(a), slot(a), leaf(a), corners(a) {}
   Array<HierarchyNode> nodes;
-  Array<uint32_t> order;  // triangle indices, leaf by leaf: position i is "slot" i
-  Array<uint32_t> slot;   // per triangle: its slot (order's inverse)
+  Array<uint32_t> parent;  // per node: its parent (the root's is ~0u)
+  Array<uint32_t> order;   // triangle indices, leaf by leaf: position i is "slot" i
+  Array<uint32_t> slot;    // per triangle: its slot (order's inverse)
+  Array<uint32_t> leaf;    // per slot: the leaf holding it
   // The triangles' corners by slot, three planes of slot_stride() entries (corner k of the
   // triangle in slot i at k·stride + i), so a leaf's corners load as lanes; the padding
   // after the last slot holds ~0u, which names no vertex.
@@ -124,6 +126,16 @@ inline TriangleHierarchy build_triangle_hierarchy(const glm::vec3* positions, co
     stack[top++] = {left, p.depth + 1};
     stack[top++] = {left + 1, p.depth + 1};
   }
+  h.parent.assign(h.nodes.size(), ~0u);
+  h.leaf.resize(triangle_count);
+  for (uint32_t n = 0; n < h.nodes.size(); ++n) {
+    const HierarchyNode node = h.nodes[n];
+    if (node.count == 0) {
+      h.parent[node.first] = h.parent[node.first + 1] = n;
+    } else {
+      for (uint32_t i = node.first; i < node.first + node.count; ++i) h.leaf[i] = n;
+    }
+  }
   h.slot.resize(triangle_count);
   const size_t stride = h.slot_stride();
   h.corners.assign(3 * stride, ~0u);
@@ -164,6 +176,22 @@ inline void refit_triangle_hierarchy(const TriangleHierarchy& h, const SlotBoxes
   }
 }
 
+// Grows the node boxes (as refit_triangle_hierarchy left them, or grown since) around `box`, the
+// new box of the triangle in `slot`: its leaf and ancestors, up to the first that holds it
+// already. The boxes then hold every triangle's box as it is now (and as it was), so queries
+// find every pair that meets, at the cost of looser boxes than a refit.
+inline void grow_triangle_hierarchy(const TriangleHierarchy& h, size_t slot, const float* box, float* node_boxes) {
+  for (uint32_t n = h.leaf[slot]; n != ~0u; n = h.parent[n]) {
+    float* b = node_boxes + 6 * size_t(n);
+    if (b[0] <= box[0] && b[1] <= box[1] && b[2] <= box[2] && box[3] <= b[3] && box[4] <= b[4] && box[5] <= b[5])
+      return;
+    for (int k = 0; k < 3; ++k) {
+      b[k] = std::min(b[k], box[k]);
+      b[3 + k] = std::max(b[3 + k], box[3 + k]);
+    }
+  }
+}
+
 inline bool hierarchy_boxes_meet(const float* a, const float* b) {
   return a[0] <= b[3] && b[0] <= a[3] && a[1] <= b[4] && b[1] <= a[4] && a[2] <= b[5] && b[2] <= a[5];
 }
@@ -171,7 +199,7 @@ inline bool hierarchy_boxes_meet(const float* a, const float* b) {
 // The work bound of a pair search over a mesh of `triangles` (the LBS guard per evaluation, the
 // rest pairs at load): candidate pairs visited, kPairVisitsPerTriangle per triangle plus
 // kPairVisitsFloor. Real meshes stay far below it (the corpus's worst guard evaluation visits
-// 27 per triangle); only a surface tangled over itself, all boxes meeting all boxes, reaches
+// 26 per triangle); only a surface tangled over itself, all boxes meeting all boxes, reaches
 // it, and the searches are quadratic there: the caller stops and falls back.
 constexpr uint64_t kPairVisitsPerTriangle = 64;
 constexpr uint64_t kPairVisitsFloor = uint64_t(1) << 16;

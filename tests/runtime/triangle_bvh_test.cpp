@@ -5,6 +5,7 @@
 #include "triangle_bvh.h"
 
 #include <doctest/doctest.h>
+#include <glm/common.hpp>
 #include <glm/vec3.hpp>
 
 #include <algorithm>
@@ -224,6 +225,55 @@ TEST_CASE("triangle hierarchy: a box query finds what a brute-force loop finds")
         expected.insert(t);
     }
     mismatched += found != expected || visits != found.size() ? 1 : 0;  // each triangle once
+    found_total += found.size();
+  }
+  CHECK(mismatched == 0);
+  CHECK(found_total > 1000);
+}
+
+TEST_CASE("triangle hierarchy: node boxes grown around moved triangles find what a brute-force loop finds") {
+  // The guard's later rounds: boxes refitted at one pose, then some triangles move (here a band
+  // of the rolled grid unrolls back towards the plane) and the node boxes only grow around them.
+  std::vector<glm::vec3> rest, now;
+  std::vector<uint32_t> tri;
+  grid(23, 1.3f, rest, now, tri);
+  Searchable scene(rest, now, tri);
+  const uint32_t n = scene.n;
+  std::vector<glm::vec3> moved = now;
+  for (size_t v = 0; v < moved.size(); ++v)
+    if (rest[v].y > 0.3f && rest[v].y < 0.6f) moved[v] = glm::mix(now[v], rest[v] + glm::vec3(0.0f, 0.0f, 0.2f), 0.7f);
+  std::vector<float> boxes;
+  boxes_of(moved, tri, boxes);
+  size_t changed = 0;
+  for (uint32_t t = 0; t < n; ++t) {
+    if (std::equal(boxes.begin() + 6 * t, boxes.begin() + 6 * t + 6, scene.boxes.begin() + 6 * t)) continue;
+    scene.slot_boxes.set(scene.h.slot[t], &boxes[6 * size_t(t)]);
+    skelform::runtime::grow_triangle_hierarchy(scene.h, scene.h.slot[t], &boxes[6 * size_t(t)],
+                                               scene.node_boxes.data());
+    ++changed;
+  }
+  REQUIRE(changed > 50);
+  // Every node box holds its children's (grown, a node box still bounds its subtree).
+  for (uint32_t m = 1; m < scene.h.nodes.size(); ++m) {
+    const float* child = &scene.node_boxes[6 * size_t(m)];
+    const float* parent = &scene.node_boxes[6 * size_t(scene.h.parent[m])];
+    for (int k = 0; k < 3; ++k) {
+      CHECK(parent[k] <= child[k]);
+      CHECK(child[3 + k] <= parent[3 + k]);
+    }
+  }
+  size_t mismatched = 0, found_total = 0;
+  for (uint32_t q = 0; q < n; q += 5) {
+    const float* box = &boxes[6 * size_t(q)];
+    std::set<uint32_t> found, expected;
+    query_triangle_hierarchy(scene.h, scene.node_boxes.data(), scene.slot_boxes, box,
+                             [&](uint32_t t) { found.insert(t); });
+    for (uint32_t t = 0; t < n; ++t) {
+      const float* b = &boxes[6 * size_t(t)];
+      if (box[0] <= b[3] && b[0] <= box[3] && box[1] <= b[4] && b[1] <= box[4] && box[2] <= b[5] && b[2] <= box[5])
+        expected.insert(t);
+    }
+    mismatched += found != expected ? 1 : 0;
     found_total += found.size();
   }
   CHECK(mismatched == 0);
