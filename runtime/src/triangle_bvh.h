@@ -147,6 +147,14 @@ inline TriangleHierarchy build_triangle_hierarchy(const glm::vec3* positions, co
   return h;
 }
 
+// Box `b` (6 floats: lo xyz, hi xyz) grown to hold `box` too.
+inline void grow_box(float* b, const float* box) {
+  for (int k = 0; k < 3; ++k) {
+    b[k] = std::min(b[k], box[k]);
+    b[3 + k] = std::max(b[3 + k], box[3 + k]);
+  }
+}
+
 // Node boxes (6 floats per node: lo xyz, hi xyz) from the triangles' boxes, children before
 // parents; a leaf reads its slots' lanes, contiguous in each plane.
 inline void refit_triangle_hierarchy(const TriangleHierarchy& h, const SlotBoxes& boxes, float* node_boxes) {
@@ -167,11 +175,8 @@ inline void refit_triangle_hierarchy(const TriangleHierarchy& h, const SlotBoxes
       }
     } else {
       const float* c0 = node_boxes + 6 * size_t(node.first);
-      const float* c1 = node_boxes + 6 * size_t(node.first + 1);
-      for (int k = 0; k < 3; ++k) {
-        b[k] = std::min(c0[k], c1[k]);
-        b[3 + k] = std::max(c0[3 + k], c1[3 + k]);
-      }
+      std::copy(c0, c0 + 6, b);
+      grow_box(b, c0 + 6);  // the second child follows the first
     }
   }
 }
@@ -185,10 +190,7 @@ inline void grow_triangle_hierarchy(const TriangleHierarchy& h, size_t slot, con
     float* b = node_boxes + 6 * size_t(n);
     if (b[0] <= box[0] && b[1] <= box[1] && b[2] <= box[2] && box[3] <= b[3] && box[4] <= b[4] && box[5] <= b[5])
       return;
-    for (int k = 0; k < 3; ++k) {
-      b[k] = std::min(b[k], box[k]);
-      b[3 + k] = std::max(b[3 + k], box[3 + k]);
-    }
+    grow_box(b, box);
   }
 }
 
@@ -445,8 +447,7 @@ inline LeafPairKernel leaf_pair_kernel() {
 template <class Visit>
 bool self_pairs_triangle_hierarchy(const TriangleHierarchy& h, const float* node_boxes, const SlotBoxes& boxes,
                                    const uint8_t* wanted, uint8_t* node_wanted, LeafLanes* leaf_wanted, Visit&& visit) {
-  static_assert(kLeafTriangles % 4 == 0 && kLeafTriangles % 8 == 0 && kLeafTriangles < 64,
-                "a leaf: groups of eight lanes, its lanes one word");
+  static_assert(kLeafTriangles % 8 == 0 && kLeafTriangles < 64, "a leaf: groups of eight lanes, its lanes one word");
   if (h.nodes.empty()) return true;
   detail::mark_wanted(h, wanted, node_wanted, leaf_wanted);
   const detail::LeafPairInput input{boxes.planes.data(), boxes.stride, h.corners.data(), h.slot_stride()};

@@ -121,6 +121,30 @@ void grid(uint32_t k, float turns, std::vector<glm::vec3>& rest, std::vector<glm
     }
 }
 
+// Queries the scene's hierarchy with the box (`boxes`, by triangle) of every `step`-th triangle
+// and compares what each finds with a brute-force loop over `boxes`: the queries that differ
+// or report a triangle twice. Adds the triangles found to `found_total`.
+size_t query_mismatches(const Searchable& scene, const std::vector<float>& boxes, uint32_t step, size_t& found_total) {
+  size_t mismatched = 0;
+  for (uint32_t q = 0; q < scene.n; q += step) {
+    const float* box = &boxes[6 * size_t(q)];
+    std::set<uint32_t> found, expected;
+    size_t visits = 0;
+    query_triangle_hierarchy(scene.h, scene.node_boxes.data(), scene.slot_boxes, box, [&](uint32_t t) {
+      found.insert(t);
+      ++visits;
+    });
+    for (uint32_t t = 0; t < scene.n; ++t) {
+      const float* b = &boxes[6 * size_t(t)];
+      if (box[0] <= b[3] && b[0] <= box[3] && box[1] <= b[4] && b[1] <= box[4] && box[2] <= b[5] && b[2] <= box[5])
+        expected.insert(t);
+    }
+    mismatched += found != expected || visits != found.size() ? 1 : 0;  // each triangle once
+    found_total += found.size();
+  }
+  return mismatched;
+}
+
 }  // namespace
 
 TEST_CASE("triangle hierarchy: the self-pair search finds what a brute-force loop finds") {
@@ -208,25 +232,8 @@ TEST_CASE("triangle hierarchy: a box query finds what a brute-force loop finds")
   std::vector<uint32_t> tri;
   grid(23, 1.3f, rest, now, tri);
   const Searchable scene(rest, now, tri);
-  const uint32_t n = scene.n;
-  const std::vector<float>& boxes = scene.boxes;
-  size_t found_total = 0, mismatched = 0;
-  for (uint32_t q = 0; q < n; q += 7) {
-    const float* box = &boxes[6 * size_t(q)];
-    std::set<uint32_t> found, expected;
-    size_t visits = 0;
-    query_triangle_hierarchy(scene.h, scene.node_boxes.data(), scene.slot_boxes, box, [&](uint32_t t) {
-      found.insert(t);
-      ++visits;
-    });
-    for (uint32_t t = 0; t < n; ++t) {
-      const float* b = &boxes[6 * size_t(t)];
-      if (box[0] <= b[3] && b[0] <= box[3] && box[1] <= b[4] && b[1] <= box[4] && box[2] <= b[5] && b[2] <= box[5])
-        expected.insert(t);
-    }
-    mismatched += found != expected || visits != found.size() ? 1 : 0;  // each triangle once
-    found_total += found.size();
-  }
+  size_t found_total = 0;
+  const size_t mismatched = query_mismatches(scene, scene.boxes, 7, found_total);
   CHECK(mismatched == 0);
   CHECK(found_total > 1000);
 }
@@ -262,20 +269,8 @@ TEST_CASE("triangle hierarchy: node boxes grown around moved triangles find what
       CHECK(child[3 + k] <= parent[3 + k]);
     }
   }
-  size_t mismatched = 0, found_total = 0;
-  for (uint32_t q = 0; q < n; q += 5) {
-    const float* box = &boxes[6 * size_t(q)];
-    std::set<uint32_t> found, expected;
-    query_triangle_hierarchy(scene.h, scene.node_boxes.data(), scene.slot_boxes, box,
-                             [&](uint32_t t) { found.insert(t); });
-    for (uint32_t t = 0; t < n; ++t) {
-      const float* b = &boxes[6 * size_t(t)];
-      if (box[0] <= b[3] && b[0] <= box[3] && box[1] <= b[4] && b[1] <= box[4] && box[2] <= b[5] && b[2] <= box[5])
-        expected.insert(t);
-    }
-    mismatched += found != expected ? 1 : 0;
-    found_total += found.size();
-  }
+  size_t found_total = 0;
+  const size_t mismatched = query_mismatches(scene, boxes, 5, found_total);
   CHECK(mismatched == 0);
   CHECK(found_total > 1000);
 }
