@@ -189,19 +189,20 @@ void evaluate_skelform(sf_instance& instance, const sf_eval_options& options, bo
   scale = skin ? instance.joints.scale : 1.0f;
   if (scale != 1.0f)
     for (uint32_t v = 0; v < d.vertex_count; ++v) result.positions[v] *= scale;
-  // 5. The contact pass (contact.h), when the caller turned it on: on skelform's own result,
-  // moving only what skelform may move, before the guard checks it against LBS.
+  // 5. The contact pass (contact.h), when the caller turned it on: on the output as the
+  // skelform weight blends it with LBS, moving only what skelform may move, before the guard
+  // checks it against LBS.
   const bool blended = skin && !instance.lbs_positions.empty();
-  if (instance.contacts_enabled)
-    resolve_contacts(d.welded, scale, result.positions, d.vertex_count, instance.contact,
-                     blended ? d.skelform_weight.data() : nullptr);
+  const DenseOutput lbs = lbs_buffers(instance).output();
+  if (blended) dense_skinning(d, instance.joints, Blend::linear, with_normals, lbs);
+  if (instance.contacts_enabled) {
+    ContactBlend blend;
+    if (blended) blend = {lbs.positions, d.skelform_weight.data()};
+    resolve_contacts(d.welded, scale, result.positions, d.vertex_count, instance.contact, blend);
+  }
   // 6. LBS where LBS is exact, and never an intersection LBS does not have (lbs_guard.h),
   // blended in place.
-  if (blended) {
-    const DenseOutput lbs = lbs_buffers(instance).output();
-    dense_skinning(d, instance.joints, Blend::linear, with_normals, lbs);
-    guard_and_blend(d, d.welded, scale, result, lbs, with_normals, result, instance.guard);
-  }
+  if (blended) guard_and_blend(d, d.welded, scale, result, lbs, with_normals, result, instance.guard);
 }
 
 sf_result evaluate(sf_instance& instance, const sf_eval_options& options) {

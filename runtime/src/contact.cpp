@@ -396,13 +396,17 @@ ContactWorkspace make_contact_workspace(const ContactMesh& mesh, const Allocator
 }
 
 ContactStats resolve_contacts(const ContactMesh& mesh, float scale, glm::vec3* dense_positions,
-                              uint32_t dense_vertex_count, ContactWorkspace& ws, const float* movable) {
+                              uint32_t dense_vertex_count, ContactWorkspace& ws, const ContactBlend& blend) {
   ContactStats stats;
   // The pass's lengths follow the output's scale (instance.h JointTransforms).
   const float gap = mesh.gap * scale, cap = mesh.cap * scale;
   if (mesh.triangle_count < 2 || dense_vertex_count != mesh.weld.size() || mesh.tangled_at_rest) return stats;
   glm::vec3* x = ws.positions.data();
-  for (uint32_t w = 0; w < mesh.vertex_count; ++w) x[w] = dense_positions[mesh.representative[w]];
+  const float* movable = blend.weight;
+  for (uint32_t w = 0; w < mesh.vertex_count; ++w) {
+    const uint32_t r = mesh.representative[w];
+    x[w] = blend.lbs ? blend.lbs[r] + blend.weight[r] * (dense_positions[r] - blend.lbs[r]) : dense_positions[r];
+  }
   Grid grid(mesh, gap, ws);
   if (!grid.build(cap)) return stats;  // a non-finite position: leave the output as it is
   ws.budget = PairBudget(mesh.triangle_count, kContactBudgetPasses);
@@ -465,7 +469,13 @@ ContactStats resolve_contacts(const ContactMesh& mesh, float scale, glm::vec3* d
   for (uint32_t v : ws.active) stats.moved += (ws.state[v] & kMoved) ? 1u : 0u;
   if (stats.moved)
     for (uint32_t i = 0; i < dense_vertex_count; ++i)
-      if (ws.state[mesh.weld[i]] & kMoved) dense_positions[i] = x[mesh.weld[i]];
+      if (ws.state[mesh.weld[i]] & kMoved) {
+        const glm::vec3& moved = x[mesh.weld[i]];
+        if (!blend.lbs)
+          dense_positions[i] = moved;
+        else if (blend.weight[i] > 0.0f)  // a rigid copy of a movable vertex stays LBS's
+          dense_positions[i] = blend.lbs[i] + (moved - blend.lbs[i]) / blend.weight[i];
+      }
   return stats;
 }
 

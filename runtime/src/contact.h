@@ -105,10 +105,21 @@ struct ContactStats {
   bool over_budget = false;   // the pass ran out of its work budget and moved nothing
 };
 
-// The pass on `dense_positions` (per dense vertex, in place). Deterministic.
-// `movable` (optional, per dense vertex): only welded vertices whose representative has a
-// positive value move (the skin driver passes the skelform weight: rigid parts stay rigid).
+// How the output blends skelform's result K with LBS (lbs_guard.h: L + w·(K − L) before the
+// guard's share), when it does.
+struct ContactBlend {
+  const glm::vec3* lbs = nullptr;  // L per dense vertex
+  const float* weight = nullptr;   // w per dense vertex
+};
+
+// The pass on `dense_positions` (skelform's result K per dense vertex, in place).
+// Deterministic. With a blend, it resolves the contacts of the blended mesh L + w·(K − L),
+// what the output shows, moves only welded vertices whose representative has w > 0 (rigid
+// parts stay rigid), and writes each moved copy's K back so that its blend lands where the pass
+// put it (K = L + (x − L) / w): a vertex that takes a tenth of skelform's result still gets the
+// whole of its push. Without one, it resolves the contacts of K and any vertex may move.
 ContactStats resolve_contacts(const ContactMesh& mesh, float scale, glm::vec3* dense_positions,
-                              uint32_t dense_vertex_count, ContactWorkspace& workspace, const float* movable = nullptr);
+                              uint32_t dense_vertex_count, ContactWorkspace& workspace,
+                              const ContactBlend& blend = ContactBlend());
 
 }  // namespace skelform::runtime

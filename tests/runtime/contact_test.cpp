@@ -1,7 +1,8 @@
 // The contact pass (runtime/src/contact.h) on scenes whose answer is known: an octahedron's
 // tip pushed through the top face of a cube comes back out along the face normal and nothing
 // else moves; no intersection, no change; welded copies move together; a non-finite position
-// leaves the output alone. Through the C API: set_contacts' arguments, evaluation never
+// leaves the output alone; blended with LBS, the output's tip gets the whole push and a
+// rigid one none. Through the C API: set_contacts' arguments, evaluation never
 // allocates with the pass on, and the pass is output only (turned off again, an instance gives
 // the bits of one that never had it).
 #include "contact.h"
@@ -168,6 +169,57 @@ TEST_CASE("contact: no intersection, no change; welded copies move together; non
     Pass(scene).run(x);
     Pass(scaled).run(y);
     for (size_t v = 0; v < x.size(); ++v) CHECK(std::memcmp(&y[v], &(x[v] *= 1024.0f), sizeof(glm::vec3)) == 0);
+  }
+}
+
+TEST_CASE("contact: with a blend, the pass resolves what the output shows and moves only what skelform may") {
+  // LBS L holds the tip 0.1 above the cube's top face, skelform's K far below it, and the tip
+  // takes a twentieth of skelform's result: the output L + w·(K − L) has it 0.1 inside (z 0.9).
+  // The cube's corners are rigid (w = 0; K = L there). At rest the tip is clear of the cube.
+  constexpr float w = 0.05f;
+  const Scene scene(1.1f - 0.2f / w), rest_scene(0.9f);
+  std::vector<glm::vec3> lbs = scene.positions;
+  lbs[0].z = 1.1f;
+  std::vector<float> weight(scene.positions.size(), 0.0f);
+  auto blended = [&](const std::vector<glm::vec3>& k) {
+    std::vector<glm::vec3> out(k.size());
+    for (size_t v = 0; v < k.size(); ++v) out[v] = lbs[v] + weight[v] * (k[v] - lbs[v]);
+    return out;
+  };
+  SUBCASE("the tip takes a twentieth") {
+    for (size_t v = 0; v < 6; ++v) weight[v] = w;
+    std::vector<glm::vec3> k = scene.positions;
+    REQUIRE(blended(k)[0].z == doctest::Approx(0.9f));
+    REQUIRE(scene.pairs(blended(k)) > 0);
+    Pass pass(rest_scene);
+    const ContactStats stats =
+        resolve_contacts(pass.mesh, 1.0f, k.data(), uint32_t(k.size()), pass.workspace, {lbs.data(), weight.data()});
+    const std::vector<glm::vec3> out = blended(k);
+    MESSAGE("output tip z = " << out[0].z << ", K tip z = " << k[0].z << ", cap " << pass.mesh.cap);
+    CHECK(stats.moved == 1);
+    CHECK(scene.pairs(out) == 0);
+    // The whole push reaches the output (on K it is twenty times as long), within the cap.
+    CHECK(out[0].z > 1.0f);
+    CHECK(out[0].z - 0.9f <= pass.mesh.cap * 1.0001f);
+    CHECK(k[0].z - scene.positions[0].z == doctest::Approx((out[0].z - 0.9f) / w));
+    for (size_t v = 1; v < k.size(); ++v) CHECK(std::memcmp(&k[v], &scene.positions[v], sizeof(glm::vec3)) == 0);
+    // The same pass on K alone moves K's tip by at most a cap, a twentieth of which reaches
+    // the output: still inside.
+    std::vector<glm::vec3> on_k = scene.positions;
+    Pass(rest_scene).run(on_k);
+    CHECK(scene.pairs(blended(on_k)) > 0);
+  }
+  SUBCASE("a rigid tip stays where LBS puts it") {
+    // w = 0 at the tip: the output is L, which the pass leaves alone even where K is deep in.
+    std::vector<glm::vec3> k = scene.positions;
+    lbs[0].z = 0.95f;
+    REQUIRE(scene.pairs(blended(k)) > 0);
+    Pass pass(rest_scene);
+    const ContactStats stats =
+        resolve_contacts(pass.mesh, 1.0f, k.data(), uint32_t(k.size()), pass.workspace, {lbs.data(), weight.data()});
+    CHECK(stats.pairs_before > 0);
+    CHECK(stats.moved == 0);
+    CHECK(std::memcmp(k.data(), scene.positions.data(), k.size() * sizeof(glm::vec3)) == 0);
   }
 }
 

@@ -274,11 +274,12 @@ SF_API sf_result sf_instance_set_handle_targets(sf_instance* instance, const flo
                                                 size_t stride_bytes);
 
 /* The contact pass (off by default; docs/runtime-api.md "Contact pass"). When on, every
- * SF_METHOD_SKELFORM evaluation runs it on skelform's own dense result, before the guards
- * against LBS (sf_instance_evaluate): the remaining self-intersections are found on the dense
- * mesh (welded by rest position) and the vertices skelform may move (skelform weight above 0)
- * moved out of each other, each move kept only where the number of intersecting triangle pairs
- * around the vertex does not grow. It costs a broad phase over every dense triangle per
+ * SF_METHOD_SKELFORM evaluation runs it before the guards against LBS (sf_instance_evaluate),
+ * on the dense mesh as the output shows it (skelform's result blended with LBS by the skelform
+ * weight; skelform's own result under the handle driver): the remaining self-intersections are
+ * found on it (welded by rest position) and the vertices skelform may move (skelform weight
+ * above 0) moved out of each other, each move kept only where the number of intersecting
+ * triangle pairs around the vertex does not grow. It costs a broad phase over every dense triangle per
  * evaluation, which is why it is opt-in; its work is bounded, linear in the triangles, and a
  * surface tangled over itself beyond that bound is left as skelform made it (the guards still
  * apply). It never feeds the fairing's warm start. Turning it
