@@ -105,6 +105,45 @@ size_t pairs_added(const std::vector<TrianglePair>& posed, const std::vector<Tri
   return added;
 }
 
+Junctions find_junctions(const DenseTopology& topology, const std::vector<TrianglePair>& reference) {
+  // Union-find over the welded vertices; a part is named by its smallest vertex.
+  std::vector<uint32_t> root(topology.vertex_of_welded.size());
+  for (size_t v = 0; v < root.size(); ++v) root[v] = uint32_t(v);
+  auto find = [&](uint32_t v) {
+    while (root[v] != v) v = root[v] = root[root[v]];
+    return v;
+  };
+  for (const auto& t : topology.triangles)
+    for (int k = 1; k < 3; ++k) {
+      const uint32_t a = find(t[0]), b = find(t[size_t(k)]);
+      root[std::max(a, b)] = std::min(a, b);
+    }
+  Junctions junctions;
+  junctions.part.reserve(topology.triangles.size());
+  for (const auto& t : topology.triangles) junctions.part.push_back(find(t[0]));
+  for (const TrianglePair& pair : reference) {
+    const uint32_t a = junctions.part[pair.first], b = junctions.part[pair.second];
+    if (a != b) junctions.joined.emplace_back(std::min(a, b), std::max(a, b));
+  }
+  std::sort(junctions.joined.begin(), junctions.joined.end());
+  junctions.joined.erase(std::unique(junctions.joined.begin(), junctions.joined.end()), junctions.joined.end());
+  return junctions;
+}
+
+size_t pairs_added_at_junctions(const std::vector<TrianglePair>& posed, const std::vector<TrianglePair>& reference,
+                                const Junctions& junctions) {
+  size_t added = 0;
+  auto r = reference.begin();
+  for (const TrianglePair& pair : posed) {
+    while (r != reference.end() && *r < pair) ++r;
+    if (r != reference.end() && *r == pair) continue;
+    const uint32_t a = junctions.part[pair.first], b = junctions.part[pair.second];
+    added += a != b && std::binary_search(junctions.joined.begin(), junctions.joined.end(),
+                                          std::make_pair(std::min(a, b), std::max(a, b)));
+  }
+  return added;
+}
+
 double enclosed_volume(const DenseTopology& topology, const std::vector<float>& positions) {
   auto at = [&](uint32_t w) {
     const size_t v = topology.vertex_of_welded[w];

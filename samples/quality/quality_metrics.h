@@ -39,6 +39,22 @@ std::vector<TrianglePair> intersecting_pairs(const DenseTopology& topology, cons
 // Pairs of `posed` that are not in `reference` (both sorted): the pairs a pose adds.
 size_t pairs_added(const std::vector<TrianglePair>& posed, const std::vector<TrianglePair>& reference);
 
+// Parts modelled through each other (a spider's legs pushed into its body, a sword through a
+// belt): a part is a connected piece of the welded mesh (triangles sharing a welded vertex),
+// and two parts are joined when a pair of their triangles intersects in the reference pose.
+// Where joined parts move against each other, the curve where they cross slides over their
+// triangles, and the pairs it crosses change: pairs added over the reference that no
+// deformation keeping both parts' shapes can avoid.
+struct Junctions {
+  std::vector<uint32_t> part;                         // per triangle of the topology
+  std::vector<std::pair<uint32_t, uint32_t>> joined;  // (lower, higher) part, sorted, unique
+};
+Junctions find_junctions(const DenseTopology& topology, const std::vector<TrianglePair>& reference);
+
+// Of the pairs `posed` adds over `reference` (both sorted), those between two joined parts.
+size_t pairs_added_at_junctions(const std::vector<TrianglePair>& posed, const std::vector<TrianglePair>& reference,
+                                const Junctions& junctions);
+
 // Signed volume bounded by the welded triangles (divergence theorem, double); meaningful
 // when topology.closed.
 double enclosed_volume(const DenseTopology& topology, const std::vector<float>& positions);

@@ -11,6 +11,9 @@
 // matrices with no animation applied, LBS there):
 //   pairs added     intersecting pairs of non-adjacent triangles of the posed mesh that do not
 //                   intersect at the bind pose (quality_metrics.h)
+//   at junctions    of the pairs added, those between two parts of the mesh (connected pieces)
+//                   that already intersect each other at the bind pose (quality_metrics.h
+//                   Junctions); reported beside the pairs added, not instead of them
 //   worse frames    measured frames where skelform adds more pairs than LBS
 //   |ΔV|            |V(posed) − V(bind)| / V(bind), on closed meshes only
 //   rigid           max distance of a single-influence vertex (largest weight ≥ 0.999) from
@@ -53,9 +56,10 @@ const char* const kUsage =
     "\n"
     "Plays every animation of skinned glTF 2.0 models through skelform and through linear\n"
     "blend skinning (LBS) and prints, per character and animation, against the bind pose in\n"
-    "world space: intersecting triangle pairs added (skelform / LBS), frames where skelform\n"
-    "adds more than LBS, mean and worst |volume change| (closed meshes), the largest distance\n"
-    "of single-influence vertices from their rigid motion, and the rest and bind pose errors.\n"
+    "world space: intersecting triangle pairs added (skelform / LBS; and of those, the pairs\n"
+    "between parts modelled through each other), frames where skelform adds more than LBS,\n"
+    "mean and worst |volume change| (closed meshes), the largest distance of single-influence\n"
+    "vertices from their rigid motion, and the rest and bind pose errors.\n"
     "Files without the SKELFORM_skeletal_deformation extension are baked in memory first.\n"
     "Directories are searched recursively for .glb and .gltf files.\n"
     "\n"
@@ -187,7 +191,8 @@ std::vector<std::string> collect_files(const std::vector<std::string>& inputs) {
 
 struct FrameResult {
   size_t skelform_added = 0, lbs_added = 0;
-  double skelform_volume = 0, lbs_volume = 0;  // |ΔV| / V(bind); 0 for open meshes
+  size_t skelform_junction = 0, lbs_junction = 0;  // of those, between parts joined as modelled
+  double skelform_volume = 0, lbs_volume = 0;      // |ΔV| / V(bind); 0 for open meshes
   double rigid = 0;
 };
 
@@ -229,6 +234,7 @@ struct Character {
   DenseTopology topology;
   std::vector<uint8_t> rigid;  // per dense vertex: single influence
   std::vector<TrianglePair> bind_pairs;
+  Junctions junctions;  // parts that intersect each other at the bind pose
   double bind_volume = 0, diagonal = 1;
 };
 
@@ -292,8 +298,12 @@ FrameResult measure_frame(Character& c) {
   const std::vector<float> skelform = dense_positions(c.skelform, c);
   const std::vector<float> lbs = dense_positions(c.lbs, c);
   FrameResult frame;
-  frame.skelform_added = pairs_added(intersecting_pairs(c.topology, skelform), c.bind_pairs);
-  frame.lbs_added = pairs_added(intersecting_pairs(c.topology, lbs), c.bind_pairs);
+  const std::vector<TrianglePair> skelform_pairs = intersecting_pairs(c.topology, skelform);
+  const std::vector<TrianglePair> lbs_pairs = intersecting_pairs(c.topology, lbs);
+  frame.skelform_added = pairs_added(skelform_pairs, c.bind_pairs);
+  frame.lbs_added = pairs_added(lbs_pairs, c.bind_pairs);
+  frame.skelform_junction = pairs_added_at_junctions(skelform_pairs, c.bind_pairs, c.junctions);
+  frame.lbs_junction = pairs_added_at_junctions(lbs_pairs, c.bind_pairs, c.junctions);
   if (c.topology.closed && c.bind_volume != 0.0) {
     frame.skelform_volume = std::fabs(enclosed_volume(c.topology, skelform) - c.bind_volume) / std::fabs(c.bind_volume);
     frame.lbs_volume = std::fabs(enclosed_volume(c.topology, lbs) - c.bind_volume) / std::fabs(c.bind_volume);
@@ -373,6 +383,7 @@ FileResult measure_file(const std::string& path, const Arguments& args) {
       result.bind_error =
           std::max(result.bind_error, max_distance(dense_positions(c.skelform, c), bind_lbs, nullptr) / c.diagonal);
       c.bind_pairs = intersecting_pairs(c.topology, bind_lbs);
+      c.junctions = find_junctions(c.topology, c.bind_pairs);
       result.bind_pairs += c.bind_pairs.size();
       c.bind_volume = c.topology.closed ? enclosed_volume(c.topology, bind_lbs) : 0.0;
     }
@@ -416,6 +427,8 @@ FileResult measure_file(const std::string& path, const Arguments& args) {
           const FrameResult frame = measure_frame(c);
           total.skelform_added += frame.skelform_added;
           total.lbs_added += frame.lbs_added;
+          total.skelform_junction += frame.skelform_junction;
+          total.lbs_junction += frame.lbs_junction;
           total.skelform_volume =
               first ? frame.skelform_volume : std::max(total.skelform_volume, frame.skelform_volume);
           total.lbs_volume = first ? frame.lbs_volume : std::max(total.lbs_volume, frame.lbs_volume);
@@ -440,13 +453,15 @@ FileResult measure_file(const std::string& path, const Arguments& args) {
 // ---- Summaries --------------------------------------------------------------------------------
 
 struct Summary {
-  size_t frames = 0, skelform_added = 0, lbs_added = 0, worse = 0;
+  size_t frames = 0, skelform_added = 0, lbs_added = 0, worse = 0, skelform_junction = 0, lbs_junction = 0;
   double skelform_volume_sum = 0, lbs_volume_sum = 0, skelform_volume_worst = 0, lbs_volume_worst = 0;
   double rigid = 0;
   void add(const FrameResult& f) {
     ++frames;
     skelform_added += f.skelform_added;
     lbs_added += f.lbs_added;
+    skelform_junction += f.skelform_junction;
+    lbs_junction += f.lbs_junction;
     worse += f.skelform_added > f.lbs_added;
     skelform_volume_sum += f.skelform_volume;
     lbs_volume_sum += f.lbs_volume;
@@ -458,6 +473,8 @@ struct Summary {
     frames += s.frames;
     skelform_added += s.skelform_added;
     lbs_added += s.lbs_added;
+    skelform_junction += s.skelform_junction;
+    lbs_junction += s.lbs_junction;
     worse += s.worse;
     skelform_volume_sum += s.skelform_volume_sum;
     lbs_volume_sum += s.lbs_volume_sum;
@@ -485,6 +502,7 @@ nlohmann::json summary_json(const Summary& s, bool closed) {
   nlohmann::json j;
   j["frames"] = s.frames;
   j["pairs_added"] = {{"skelform", s.skelform_added}, {"lbs", s.lbs_added}};
+  j["pairs_added_at_junctions"] = {{"skelform", s.skelform_junction}, {"lbs", s.lbs_junction}};
   j["frames_worse"] = s.worse;
   if (closed)
     j["volume_change"] = {{"mean", {{"skelform", s.skelform_volume_mean()}, {"lbs", s.lbs_volume_mean()}}},
@@ -498,6 +516,9 @@ std::string percent(double v) {
   std::snprintf(text, sizeof text, "%.2f%%", 100.0 * v);
   return text;
 }
+
+// a / b as a percentage, "-" when b is 0.
+std::string share(size_t a, size_t b) { return b ? percent(double(a) / double(b)) : "-"; }
 
 std::string scientific(double v) {
   char text[32];
@@ -572,12 +593,14 @@ void print_table(const std::vector<FileResult>& files) {
     packs[f.pack].add(s);
     all.add(s);
   }
-  std::printf("\n%-28s %6s %17s %6s\n", "pack", "frames", "pairs added sk/LBS", "worse");
+  std::printf("\n%-28s %6s %17s %6s %17s\n", "pack", "frames", "pairs added sk/LBS", "worse", "at junctions");
   for (const auto& [pack, s] : packs)
-    std::printf("%-28s %6zu %8zu / %-6zu %6zu\n", pack.c_str(), s.frames, s.skelform_added, s.lbs_added, s.worse);
-  std::printf("%-28s %6zu %8zu / %-6zu %6zu   (%s of LBS's pairs)\n", "total", all.frames, all.skelform_added,
-              all.lbs_added, all.worse,
-              all.lbs_added ? percent(double(all.skelform_added) / double(all.lbs_added)).c_str() : "-");
+    std::printf("%-28s %6zu %8zu / %-6zu %6zu %8zu / %-6zu\n", pack.c_str(), s.frames, s.skelform_added, s.lbs_added,
+                s.worse, s.skelform_junction, s.lbs_junction);
+  std::printf("%-28s %6zu %8zu / %-6zu %6zu %8zu / %-6zu   (%s of LBS's pairs; %s elsewhere)\n", "total", all.frames,
+              all.skelform_added, all.lbs_added, all.worse, all.skelform_junction, all.lbs_junction,
+              share(all.skelform_added, all.lbs_added).c_str(),
+              share(all.skelform_added - all.skelform_junction, all.lbs_added - all.lbs_junction).c_str());
 }
 
 // The summary of a pack (the files of one folder), or of every file.
@@ -609,19 +632,21 @@ void print_markdown(const std::vector<FileResult>& files) {
     all.add(f);
   }
   std::printf(
-      "| pack | characters | animations | frames | pairs added, skelform / LBS | frames skelform adds more | "
-      "closed characters: mean \\|ΔV\\|, skelform / LBS | largest rigid deviation | largest rest / bind error |\n");
-  std::printf("| --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: |\n");
+      "| pack | characters | animations | frames | pairs added, skelform / LBS | of which at junctions | "
+      "frames skelform adds more | closed characters: mean \\|ΔV\\|, skelform / LBS | largest rigid deviation | "
+      "largest rest / bind error |\n");
+  std::printf("| --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: |\n");
   auto row = [&](const std::string& name, const PackSummary& p) {
     const Summary& s = p.frames;
-    const std::string share = s.lbs_added ? " (" + percent(double(s.skelform_added) / double(s.lbs_added)) + ")" : "";
+    const std::string pair_share = s.lbs_added ? " (" + share(s.skelform_added, s.lbs_added) + ")" : "";
     const std::string volume = p.closed_frames.frames ? percent(p.closed_frames.skelform_volume_mean()) + " / " +
                                                             percent(p.closed_frames.lbs_volume_mean())
                                                       : "(none closed)";
-    std::printf("| %s | %zu%s | %zu | %zu | %zu / %zu%s | %zu | %s | %s | %s / %s |\n", name.c_str(), p.files,
-                p.refused ? (" (" + std::to_string(p.refused) + " refused)").c_str() : "", p.animations, s.frames,
-                s.skelform_added, s.lbs_added, share.c_str(), s.worse, volume.c_str(), scientific(s.rigid).c_str(),
-                scientific(p.rest_error).c_str(), scientific(p.bind_error).c_str());
+    std::printf("| %s | %zu%s | %zu | %zu | %zu / %zu%s | %zu / %zu | %zu | %s | %s | %s / %s |\n", name.c_str(),
+                p.files, p.refused ? (" (" + std::to_string(p.refused) + " refused)").c_str() : "", p.animations,
+                s.frames, s.skelform_added, s.lbs_added, pair_share.c_str(), s.skelform_junction, s.lbs_junction,
+                s.worse, volume.c_str(), scientific(s.rigid).c_str(), scientific(p.rest_error).c_str(),
+                scientific(p.bind_error).c_str());
   };
   for (const auto& [pack, p] : packs) row(pack, p);
   row("**total**", all);

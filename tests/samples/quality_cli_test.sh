@@ -27,6 +27,8 @@ for a in f["animations"]:
     assert a["frames"] == 3 and len(a["pairs_added_per_frame"]) == 3
     for skelform, lbs in a["pairs_added_per_frame"]:
         assert skelform <= lbs, (a["name"], skelform, lbs)
+    for method in ("skelform", "lbs"):
+        assert 0 <= a["pairs_added_at_junctions"][method] <= a["pairs_added"][method], a
     v = a["volume_change"]["mean"]
     assert v["skelform"] <= v["lbs"], v
 assert f["rest_error"] <= 1e-5 and f["bind_error"] <= 1e-5, (f["rest_error"], f["bind_error"])

@@ -1,7 +1,8 @@
 // samples/quality/quality_metrics.h: the metrics skelform-quality reports. The pair search
 // must miss no intersecting pair: it is checked against testing every pair of triangles, on
 // meshes made to intersect and on real characters posed by LBS; welding, closedness, volume
-// and the set difference against the bind pose on meshes whose answers are known.
+// and the set difference against the bind pose on meshes whose answers are known; junctions
+// (parts modelled through each other) on spheres whose parts are known.
 #include "brute_force_pairs.h"
 #include "gltf_animation.h"
 #include "quality_metrics.h"
@@ -13,8 +14,10 @@
 #include <glm/geometric.hpp>
 #include <glm/gtc/constants.hpp>
 
+#include <algorithm>
 #include <cmath>
 #include <random>
+#include <utility>
 #include <vector>
 
 namespace {
@@ -143,4 +146,56 @@ TEST_CASE("quality metrics: welding, closedness, volume and pairs added") {
     CHECK(skelform::samples::pairs_added({}, reference) == 0);
     CHECK(skelform::samples::pairs_added({{0, 1}}, {}) == 1);
   }
+}
+
+TEST_CASE("quality metrics: junctions - pairs between parts modelled through each other") {
+  // Three unit spheres: A at the origin, B through A (centre at x = 1.5), C apart (x = 5). Posed,
+  // B slides to x = 1.2 (the curve where it crosses A moves over both) and C comes into A from
+  // the other side (x = -1.5). Only A and B are joined; C's pairs with A are a new contact.
+  const skelform::bake::TriangleMesh sphere = skelform::bake::make_icosphere(1.0, 2);
+  const uint32_t n = uint32_t(sphere.triangles.size());
+  auto scene = [&](double b, double c) {
+    std::vector<float> positions;
+    std::vector<uint32_t> triangles;
+    for (double x : {0.0, b, c}) {
+      const uint32_t base = uint32_t(positions.size() / 3);
+      for (const auto& p : sphere.positions)
+        positions.insert(positions.end(), {float(p.x + x), float(p.y), float(p.z)});
+      for (const auto& t : sphere.triangles)
+        for (uint32_t v : t) triangles.push_back(base + v);
+    }
+    return std::make_pair(positions, triangles);
+  };
+  const auto [rest, triangles] = scene(1.5, 5.0);
+  const DenseTopology topology = skelform::samples::dense_topology(rest, triangles);
+  REQUIRE(topology.triangles.size() == 3 * size_t(n));
+  const std::vector<TrianglePair> reference = skelform::samples::intersecting_pairs(topology, rest);
+  REQUIRE(!reference.empty());
+  const skelform::samples::Junctions junctions = skelform::samples::find_junctions(topology, reference);
+  REQUIRE(junctions.part.size() == topology.triangles.size());
+  // Three parts, each the triangles of one sphere (dense_topology keeps their order).
+  for (uint32_t t = 0; t < 3 * n; ++t) {
+    CHECK(junctions.part[t] == junctions.part[(t / n) * n]);
+    if (t % n == 0 && t > 0) CHECK(junctions.part[t] != junctions.part[t - 1]);
+  }
+  const uint32_t a = junctions.part[0], b = junctions.part[n];
+  REQUIRE(junctions.joined.size() == 1);
+  CHECK(junctions.joined[0] == std::make_pair(std::min(a, b), std::max(a, b)));
+
+  const std::vector<float> posed = scene(1.2, -1.5).first;
+  const std::vector<TrianglePair> pairs = brute_force_pairs(topology, posed);
+  size_t between_a_and_b = 0, between_a_and_c = 0;
+  for (const TrianglePair& pair : pairs) {
+    if (std::binary_search(reference.begin(), reference.end(), pair)) continue;
+    const uint32_t s = pair.first / n, t = pair.second / n;
+    between_a_and_b += (s == 0 && t == 1) || (s == 1 && t == 0);
+    between_a_and_c += (s == 0 && t == 2) || (s == 2 && t == 0);
+  }
+  MESSAGE("pairs added between A and B " << between_a_and_b << ", between A and C " << between_a_and_c);
+  REQUIRE(between_a_and_b > 0);
+  REQUIRE(between_a_and_c > 0);
+  CHECK(skelform::samples::pairs_added(pairs, reference) == between_a_and_b + between_a_and_c);
+  CHECK(skelform::samples::pairs_added_at_junctions(pairs, reference, junctions) == between_a_and_b);
+  // The reference itself adds nothing, at junctions or elsewhere.
+  CHECK(skelform::samples::pairs_added_at_junctions(reference, reference, junctions) == 0);
 }
