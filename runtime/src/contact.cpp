@@ -440,8 +440,8 @@ ContactStats resolve_contacts(const ContactMesh& mesh, float scale, glm::vec3* d
   for (uint32_t sweep = 0; sweep < kContactSweeps; ++sweep) {
     bool any = false;
     for (uint32_t v : ws.active) {
-      // v moves at most 2 caps from where it is (its total motion stays within a cap of its start).
-      grid.gather(v, 2.0f * cap);
+      // The triangles around v where it is: its pairs and its push.
+      grid.gather(v, 0.0f);
       glm::vec3 push(0.0f);
       const uint32_t before = grid.pairs_around(v, &push);
       if (spent()) return stats;
@@ -450,6 +450,9 @@ ContactStats resolve_contacts(const ContactMesh& mesh, float scale, glm::vec3* d
       const float length = glm::length(total);
       if (length > cap) total *= cap / length;
       glm::vec3 step = ws.start[v] + total - x[v];
+      // Then those its star can meet on the way (the tries below take the step, half, a
+      // quarter; twice its length covers the rounding of x + step).
+      grid.gather(v, 2.0f * glm::length(step));
       const glm::vec3 old = x[v];
       bool accepted = false;
       for (int attempt = 0; attempt < 3 && !accepted; ++attempt, step *= 0.5f) {
