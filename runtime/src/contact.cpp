@@ -16,7 +16,7 @@ namespace {
 constexpr uint32_t kEntriesPerTriangle = 8;  // grid entries reserved per triangle (it overlaps ~3 cells)
 constexpr uint32_t kCellsPerTriangle = 4;    // grid cells at most, per triangle
 constexpr int kMaxCellsPerAxis = 1024;
-constexpr uint8_t kActive = 1, kMoved = 2;  // ContactWorkspace::state bits
+constexpr uint8_t kActive = 1, kMoved = 2, kMovable = 4;  // ContactWorkspace::state bits
 
 bool finite(const glm::vec3& v) { return std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z); }
 
@@ -402,11 +402,14 @@ ContactStats resolve_contacts(const ContactMesh& mesh, float scale, glm::vec3* d
   const float gap = mesh.gap * scale, cap = mesh.cap * scale;
   if (mesh.triangle_count < 2 || dense_vertex_count != mesh.weld.size() || mesh.tangled_at_rest) return stats;
   glm::vec3* x = ws.positions.data();
-  const float* movable = blend.weight;
   for (uint32_t w = 0; w < mesh.vertex_count; ++w) {
     const uint32_t r = mesh.representative[w];
-    x[w] = blend.lbs ? blend.lbs[r] + blend.weight[r] * (dense_positions[r] - blend.lbs[r]) : dense_positions[r];
+    x[w] = blend.lbs ? blend_with_lbs(blend.lbs[r], dense_positions[r], blend.weight[r]) : dense_positions[r];
   }
+  std::fill(ws.state.begin(), ws.state.end(), kMovable);
+  if (blend.lbs)
+    for (uint32_t i = 0; i < dense_vertex_count; ++i)
+      if (!(blend.weight[i] >= kContactMinWeight)) ws.state[mesh.weld[i]] = 0;
   Grid grid(mesh, gap, ws);
   if (!grid.build(cap)) return stats;  // a non-finite position: leave the output as it is
   ws.budget = PairBudget(mesh.triangle_count, kContactBudgetPasses);
@@ -415,7 +418,6 @@ ContactStats resolve_contacts(const ContactMesh& mesh, float scale, glm::vec3* d
     return stats.over_budget;
   };
   // Detection: the corners of every intersecting pair become active.
-  std::fill(ws.state.begin(), ws.state.end(), uint8_t(0));
   ws.active.clear();
   const uint32_t* tri = mesh.triangles.data();
   stats.pairs_before = grid.for_each_pair([&](uint32_t s, uint32_t t) {
@@ -424,7 +426,7 @@ ContactStats resolve_contacts(const ContactMesh& mesh, float scale, glm::vec3* d
     if (std::binary_search(mesh.rest_pairs.begin(), mesh.rest_pairs.end(), key)) return;
     for (uint32_t k = 0; k < 3; ++k)
       for (uint32_t v : {tri[3 * size_t(s) + k], tri[3 * size_t(t) + k]})
-        if (!(ws.state[v] & kActive) && (!movable || movable[mesh.representative[v]] > 0.0f)) {
+        if ((ws.state[v] & (kActive | kMovable)) == kMovable) {
           ws.state[v] |= kActive;
           ws.active.push_back(v);  // capacity reserved for every vertex: no allocation
         }
@@ -450,6 +452,7 @@ ContactStats resolve_contacts(const ContactMesh& mesh, float scale, glm::vec3* d
       const float length = glm::length(total);
       if (length > cap) total *= cap / length;
       glm::vec3 step = ws.start[v] + total - x[v];
+      if (!(glm::dot(step, step) > 0.0f)) continue;  // at its cap already
       // Then those its star can meet on the way (the tries below take the step, half, a
       // quarter; twice its length covers the rounding of x + step).
       grid.gather(v, 2.0f * glm::length(step));
@@ -474,10 +477,8 @@ ContactStats resolve_contacts(const ContactMesh& mesh, float scale, glm::vec3* d
     for (uint32_t i = 0; i < dense_vertex_count; ++i)
       if (ws.state[mesh.weld[i]] & kMoved) {
         const glm::vec3& moved = x[mesh.weld[i]];
-        if (!blend.lbs)
-          dense_positions[i] = moved;
-        else if (blend.weight[i] > 0.0f)  // a rigid copy of a movable vertex stays LBS's
-          dense_positions[i] = blend.lbs[i] + (moved - blend.lbs[i]) / blend.weight[i];
+        // (With a blend, every copy of a moved vertex has w ≥ kContactMinWeight.)
+        dense_positions[i] = blend.lbs ? blend.lbs[i] + (moved - blend.lbs[i]) / blend.weight[i] : moved;
       }
   return stats;
 }

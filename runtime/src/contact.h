@@ -79,7 +79,7 @@ struct ContactWorkspace {
         candidates(a) {}
   Array<glm::vec3> positions;    // welded positions
   Array<glm::vec3> start;        // position of each active vertex when the pass began
-  Array<uint8_t> state;          // per welded vertex: active (in a detected pair), moved
+  Array<uint8_t> state;          // per welded vertex: movable, active (in a detected pair), moved
   Array<uint32_t> active;        // the active vertices, ascending
   Array<uint32_t> cell_offsets;  // broad-phase grid (CSR), at most 4 cells per triangle
   Array<uint32_t> entries;       // triangles per cell, 8 entries per triangle reserved
@@ -105,19 +105,32 @@ struct ContactStats {
   bool over_budget = false;   // the pass ran out of its work budget and moved nothing
 };
 
-// How the output blends skelform's result K with LBS (lbs_guard.h: L + w·(K − L) before the
-// guard's share), when it does.
+// The output's blend of skelform's result k with LBS's l by the share s (lbs_guard.h: the
+// skelform weight times the guard's factor): l + s·(k − l), exactly l at s = 0. The guard and
+// the contact pass use this one expression, so that they see the same mesh.
+inline glm::vec3 blend_with_lbs(const glm::vec3& l, const glm::vec3& k, float s) {
+  return s == 0.0f ? l : l + s * (k - l);
+}
+
+// How the output blends skelform's result K with LBS (blend_with_lbs before the guard's
+// share), when it does.
 struct ContactBlend {
   const glm::vec3* lbs = nullptr;  // L per dense vertex
   const float* weight = nullptr;   // w per dense vertex
 };
 
+// With a blend, a welded vertex moves only if every copy of it takes at least this share of
+// skelform's result: a copy below it (a rigid one, at 0) would stay behind and open the seam,
+// and K = L + (x − L)/w must stay finite.
+constexpr float kContactMinWeight = 1e-6f;
+
 // The pass on `dense_positions` (skelform's result K per dense vertex, in place).
 // Deterministic. With a blend, it resolves the contacts of the blended mesh L + w·(K − L),
-// what the output shows, moves only welded vertices whose representative has w > 0 (rigid
-// parts stay rigid), and writes each moved copy's K back so that its blend lands where the pass
-// put it (K = L + (x − L) / w): a vertex that takes a tenth of skelform's result still gets the
-// whole of its push. Without one, it resolves the contacts of K and any vertex may move.
+// what the output shows, moves only welded vertices whose every copy has w ≥
+// kContactMinWeight (rigid parts stay rigid), and writes each moved copy's K back so that its
+// blend lands where the pass put it (K = L + (x − L) / w): a vertex that takes a tenth of
+// skelform's result still gets the whole of its push. Without one, it resolves the contacts of
+// K and any vertex may move.
 ContactStats resolve_contacts(const ContactMesh& mesh, float scale, glm::vec3* dense_positions,
                               uint32_t dense_vertex_count, ContactWorkspace& workspace,
                               const ContactBlend& blend = ContactBlend());

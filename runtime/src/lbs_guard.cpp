@@ -57,9 +57,7 @@ namespace {
 glm::vec3 blended_position(const Deformable& d, const ContactMesh& mesh, const DenseOutput& skelform,
                            const DenseOutput& lbs, const GuardWorkspace& ws, uint32_t v) {
   const uint32_t r = mesh.representative[v];
-  const float s = d.skelform_weight[r] * ws.factor[v];
-  const glm::vec3 l = lbs.positions[r];
-  return s == 0.0f ? l : l + s * (skelform.positions[r] - l);
+  return blend_with_lbs(lbs.positions[r], skelform.positions[r], d.skelform_weight[r] * ws.factor[v]);
 }
 
 // One run of the intersection guard over the current factors (ws.factor), in named steps:
@@ -415,8 +413,7 @@ void guard_and_blend(const Deformable& d, const ContactMesh& mesh, float scale, 
         if (tangents) out.tangents[v] = lbs.tangents[v];
         continue;
       }
-      const glm::vec3 l = lbs.positions[v];
-      out.positions[v] = l + s * (skelform.positions[v] - l);
+      out.positions[v] = blend_with_lbs(lbs.positions[v], skelform.positions[v], s);
       if (with_normals)
         out.normals[v] = normalize_or(lbs.normals[v] + s * (skelform.normals[v] - lbs.normals[v]), lbs.normals[v]);
       if (tangents) {

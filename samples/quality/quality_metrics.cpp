@@ -95,13 +95,23 @@ std::vector<TrianglePair> intersecting_pairs(const DenseTopology& topology, cons
   return bake::self_intersecting_pairs(mesh);
 }
 
-size_t pairs_added(const std::vector<TrianglePair>& posed, const std::vector<TrianglePair>& reference) {
-  size_t added = 0;
+namespace {
+
+// Calls visit(pair) for every pair of `posed` not in `reference` (both sorted).
+template <class Visit>
+void for_each_added(const std::vector<TrianglePair>& posed, const std::vector<TrianglePair>& reference, Visit&& visit) {
   auto r = reference.begin();
   for (const TrianglePair& pair : posed) {
     while (r != reference.end() && *r < pair) ++r;
-    if (r == reference.end() || *r != pair) ++added;
+    if (r == reference.end() || *r != pair) visit(pair);
   }
+}
+
+}  // namespace
+
+size_t pairs_added(const std::vector<TrianglePair>& posed, const std::vector<TrianglePair>& reference) {
+  size_t added = 0;
+  for_each_added(posed, reference, [&](const TrianglePair&) { ++added; });
   return added;
 }
 
@@ -133,14 +143,11 @@ Junctions find_junctions(const DenseTopology& topology, const std::vector<Triang
 size_t pairs_added_at_junctions(const std::vector<TrianglePair>& posed, const std::vector<TrianglePair>& reference,
                                 const Junctions& junctions) {
   size_t added = 0;
-  auto r = reference.begin();
-  for (const TrianglePair& pair : posed) {
-    while (r != reference.end() && *r < pair) ++r;
-    if (r != reference.end() && *r == pair) continue;
+  for_each_added(posed, reference, [&](const TrianglePair& pair) {
     const uint32_t a = junctions.part[pair.first], b = junctions.part[pair.second];
     added += a != b && std::binary_search(junctions.joined.begin(), junctions.joined.end(),
                                           std::make_pair(std::min(a, b), std::max(a, b)));
-  }
+  });
   return added;
 }
 

@@ -44,7 +44,9 @@ size_t pairs_added(const std::vector<TrianglePair>& posed, const std::vector<Tri
 // and two parts are joined when a pair of their triangles intersects in the reference pose.
 // Where joined parts move against each other, the curve where they cross slides over their
 // triangles, and the pairs it crosses change: pairs added over the reference that no
-// deformation keeping both parts' shapes can avoid.
+// deformation keeping both parts' shapes can avoid. Every added pair between two joined parts
+// counts, also one far from where they cross (a leg stuck into the body that later touches
+// it elsewhere): the count bounds the unavoidable pairs from above.
 struct Junctions {
   std::vector<uint32_t> part;                         // per triangle of the topology
   std::vector<std::pair<uint32_t, uint32_t>> joined;  // (lower, higher) part, sorted, unique

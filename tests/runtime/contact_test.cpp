@@ -209,6 +209,25 @@ TEST_CASE("contact: with a blend, the pass resolves what the output shows and mo
     Pass(rest_scene).run(on_k);
     CHECK(scene.pairs(blended(on_k)) > 0);
   }
+  SUBCASE("a seam between a blended and a rigid copy of the tip stays closed") {
+    // The tip's copy (a glTF seam) takes none of skelform's result: moving the welded tip would
+    // leave that copy behind, so it does not move.
+    const Scene seamed(1.1f - 0.2f / w, true), seamed_rest(0.9f, true);
+    std::vector<glm::vec3> seam_lbs = seamed.positions;
+    seam_lbs[0].z = seam_lbs[6].z = 1.1f;
+    std::vector<float> seam_weight(seamed.positions.size(), 0.0f);
+    for (size_t v = 0; v < 6; ++v) seam_weight[v] = w;  // vertex 6, the copy, stays at 0
+    std::vector<glm::vec3> k = seamed.positions;
+    k[6] = seam_lbs[6];  // K = L where w = 0
+    const std::vector<glm::vec3> given = k;
+    Pass pass(seamed_rest);
+    REQUIRE(pass.mesh.weld[6] == pass.mesh.weld[0]);
+    const ContactStats stats = resolve_contacts(pass.mesh, 1.0f, k.data(), uint32_t(k.size()), pass.workspace,
+                                                {seam_lbs.data(), seam_weight.data()});
+    CHECK(stats.pairs_before > 0);
+    CHECK(stats.moved == 0);
+    CHECK(std::memcmp(k.data(), given.data(), k.size() * sizeof(glm::vec3)) == 0);
+  }
   SUBCASE("a rigid tip stays where LBS puts it") {
     // w = 0 at the tip: the output is L, which the pass leaves alone even where K is deep in.
     std::vector<glm::vec3> k = scene.positions;

@@ -109,7 +109,7 @@ void check_animations(const char* relative, Property property, bool contacts = f
     report << "; fairing iterations " << double(iterations) / frames << " per frame";
     MESSAGE(report.str());
     if (property == Property::intersections) CHECK(worse_frames == 0);
-    // The pass works on skelform's own result before the guard (lbs_guard.h): whatever it
+    // The pass works on the blended output before the guard (lbs_guard.h): whatever it
     // moves, the output keeps within LBS's pairs (above), and over an animation it has fewer
     // pairs than without it.
     if (contacts && property == Property::intersections) CHECK(skelform_pairs <= plain_pairs);

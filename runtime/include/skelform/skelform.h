@@ -277,9 +277,10 @@ SF_API sf_result sf_instance_set_handle_targets(sf_instance* instance, const flo
  * SF_METHOD_SKELFORM evaluation runs it before the guards against LBS (sf_instance_evaluate),
  * on the dense mesh as the output shows it (skelform's result blended with LBS by the skelform
  * weight; skelform's own result under the handle driver): the remaining self-intersections are
- * found on it (welded by rest position) and the vertices skelform may move (skelform weight
- * above 0) moved out of each other, each move kept only where the number of intersecting
- * triangle pairs around the vertex does not grow. It costs a broad phase over every dense triangle per
+ * found on it (welded by rest position) and the vertices skelform may move (under joint
+ * matrices: every copy's skelform weight above 0; under handles: all) moved out of each other,
+ * each move kept only where the number of intersecting triangle pairs around the vertex does
+ * not grow. It costs a broad phase over every dense triangle per
  * evaluation, which is why it is opt-in; its work is bounded, linear in the triangles, and a
  * surface tangled over itself beyond that bound is left as skelform made it (the guards still
  * apply). It never feeds the fairing's warm start. Turning it
