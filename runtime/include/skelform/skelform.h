@@ -278,7 +278,7 @@ SF_API sf_result sf_instance_set_handle_targets(sf_instance* instance, const flo
  * on the dense mesh as the output shows it (skelform's result blended with LBS by the skelform
  * weight; skelform's own result under the handle driver): the remaining self-intersections are
  * found on it (welded by rest position) and the vertices skelform may move (under joint
- * matrices: every copy's skelform weight above 0; under handles: all) moved out of each other,
+ * matrices: every copy's skelform weight at least 1e-6; under handles: all) moved out of each other,
  * each move kept only where the number of intersecting triangle pairs around the vertex does
  * not grow. It costs a broad phase over every dense triangle per
  * evaluation, which is why it is opt-in; its work is bounded, linear in the triangles, and a
