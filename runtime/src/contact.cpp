@@ -232,22 +232,38 @@ class Grid {
   }
 
   // Cells of the mean triangle size, coarsened until there are at most kCellsPerTriangle
-  // cells per triangle (a surface fills few of them) and kMaxCellsPerAxis per axis.
+  // cells per triangle (a surface fills few of them), kMaxCellsPerAxis per axis, and the
+  // triangles' boxes cover at most the entries reserved (kEntriesPerTriangle per triangle). A
+  // mesh of very unequal triangles (a body of large ones, legs of small ones) would otherwise
+  // leave its large triangles past the reserve, each then tested against every triangle.
   void choose_cells(const glm::vec3& extent, float largest, float mean_size) {
     const uint32_t n = mesh_.triangle_count;
     float cell = std::max(mean_size, largest * 1e-6f);
     for (int attempt = 0; attempt < 64; ++attempt) {
       for (int k = 0; k < 3; ++k)
         dims_[k] = std::max(1, int(std::min(double(kMaxCellsPerAxis), std::ceil(double(extent[k]) / cell))));
+      inverse_cell_ = 1.0f / cell;
       const double cells = double(dims_[0]) * dims_[1] * dims_[2];
       if (cells <= double(kCellsPerTriangle) * std::max(n, 1u) && dims_[0] < kMaxCellsPerAxis &&
-          dims_[1] < kMaxCellsPerAxis && dims_[2] < kMaxCellsPerAxis)
+          dims_[1] < kMaxCellsPerAxis && dims_[2] < kMaxCellsPerAxis && entries_fit())
         break;
       cell *= 1.26f;
     }
-    if (double(dims_[0]) * dims_[1] * dims_[2] > double(kCellsPerTriangle) * std::max(n, 1u))
+    if (double(dims_[0]) * dims_[1] * dims_[2] > double(kCellsPerTriangle) * std::max(n, 1u)) {
       dims_[0] = dims_[1] = dims_[2] = 1;
-    inverse_cell_ = 1.0f / cell;
+      inverse_cell_ = 1.0f / cell;
+    }
+  }
+
+  // Do the cells of every triangle's box fit in the reserved entries?
+  bool entries_fit() const {
+    const uint64_t capacity = ws_.entries.size();
+    uint64_t used = 0;
+    for (uint32_t t = 0; t < mesh_.triangle_count; ++t) {
+      used += cell_range(stored_lo(t), stored_hi(t)).cells();
+      if (used > capacity) return false;
+    }
+    return true;
   }
 
   // Counting sort of the triangles into their cells; a triangle past the reserved entries goes
@@ -412,6 +428,7 @@ ContactStats resolve_contacts(const ContactMesh& mesh, float scale, glm::vec3* d
       if (!(blend.weight[i] >= kContactMinWeight)) ws.state[mesh.weld[i]] = 0;
   Grid grid(mesh, gap, ws);
   if (!grid.build(cap)) return stats;  // a non-finite position: leave the output as it is
+  stats.oversized = uint32_t(ws.oversized.size());
   ws.budget = PairBudget(mesh.triangle_count, kContactBudgetPasses);
   auto spent = [&] {
     stats.over_budget = ws.budget.left == 0;  // then move nothing: the counts were cut short

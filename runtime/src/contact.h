@@ -102,6 +102,7 @@ ContactWorkspace make_contact_workspace(const ContactMesh& mesh, const Allocator
 struct ContactStats {
   uint32_t pairs_before = 0;  // intersecting pairs found by the first detection
   uint32_t moved = 0;         // welded vertices moved
+  uint32_t oversized = 0;     // triangles past the grid's reserved entries (each tested against all)
   bool over_budget = false;   // the pass ran out of its work budget and moved nothing
 };
 

@@ -172,6 +172,62 @@ TEST_CASE("contact: no intersection, no change; welded copies move together; non
   }
 }
 
+TEST_CASE("contact: a mesh of very unequal triangles is bucketed whole, and its contact resolved") {
+  // Three nested octahedra of radius 1, 0.9 and 0.8 (24 large triangles, each box an eighth of
+  // the whole) around a 10³ lattice of triangles a thousandth of that size: cells of the mean
+  // triangle's size give the large ones more entries than the grid reserves for all (8 per
+  // triangle), and without a coarser grid every triangle past the reserve (here nearly all the
+  // small ones) would be tested against every triangle.
+  std::vector<glm::vec3> rest;
+  std::vector<uint32_t> triangles;
+  for (float r : {1.0f, 0.9f, 0.8f}) {
+    const uint32_t o = uint32_t(rest.size());
+    for (const glm::vec3& axis : {glm::vec3(1, 0, 0), glm::vec3(0, 1, 0), glm::vec3(0, 0, 1)}) {
+      rest.push_back(r * axis);
+      rest.push_back(-r * axis);
+    }
+    for (uint32_t x : {0u, 1u})
+      for (uint32_t y : {2u, 3u})
+        for (uint32_t z : {4u, 5u}) {
+          const bool outward = (x == 0) == (y == 2) ? z == 4 : z == 5;  // winding of an outward face
+          for (uint32_t k : outward ? std::array<uint32_t, 3>{x, y, z} : std::array<uint32_t, 3>{x, z, y})
+            triangles.push_back(o + k);
+        }
+  }
+  constexpr int kSide = 10;
+  for (int n = 0; n < kSide * kSide * kSide; ++n) {
+    const glm::vec3 at =
+        glm::vec3(float(n % kSide), float(n / kSide % kSide), float(n / (kSide * kSide))) * (0.5f / (kSide - 1)) -
+        glm::vec3(0.25f);
+    const uint32_t first = uint32_t(rest.size());
+    rest.push_back(at);
+    rest.push_back(at + glm::vec3(0.0f, 1e-3f, 0.0f));
+    rest.push_back(at + glm::vec3(1e-3f, 0.0f, 0.0f));  // facing -z
+    for (uint32_t k = 0; k < 3; ++k) triangles.push_back(first + k);
+  }
+  const ContactMesh mesh =
+      build_contact_mesh(rest.data(), uint32_t(rest.size()), triangles.data(), triangles.size() / 3, {});
+  REQUIRE(mesh.rest_pairs.empty());
+  ContactWorkspace workspace = make_contact_workspace(mesh, {});
+  // The first small triangle moved onto the second and through it, tilted and facing up.
+  std::vector<glm::vec3> x = rest;
+  const uint32_t moved = 18, into = 21;
+  const glm::vec3 p = rest[into] + glm::vec3(2e-4f, 2e-4f, 0.0f);
+  x[moved] = p + glm::vec3(0.0f, 0.0f, -2e-4f);
+  x[moved + 1] = p + glm::vec3(5e-4f, 0.0f, 2e-4f);
+  x[moved + 2] = p + glm::vec3(0.0f, 5e-4f, 2e-4f);
+  std::vector<std::array<uint32_t, 3>> corners;
+  for (size_t t = 0; t < triangles.size(); t += 3)
+    corners.push_back({triangles[t], triangles[t + 1], triangles[t + 2]});
+  auto pairs = [&] { return skelform::test::brute_force_pairs(corners, [&](uint32_t v) { return glm::dvec3(x[v]); }); };
+  REQUIRE(pairs().size() == 1);
+  const ContactStats stats = resolve_contacts(mesh, 1.0f, x.data(), uint32_t(x.size()), workspace);
+  CHECK(stats.oversized == 0);
+  CHECK(stats.pairs_before == 1);
+  CHECK(stats.moved > 0);
+  CHECK(pairs().empty());
+}
+
 TEST_CASE("contact: with a blend, the pass resolves what the output shows and moves only what skelform may") {
   // LBS L holds the tip 0.1 above the cube's top face, skelform's K far below it, and the tip
   // takes a twentieth of skelform's result: the output L + w·(K − L) has it 0.1 inside (z 0.9).
