@@ -90,8 +90,7 @@ class Grid {
     const float largest = std::max(extent.x, std::max(extent.y, extent.z));
     if (!(largest > 0.0f)) return false;
     choose_cells(extent, largest, float(extent_sum / double(std::max(n, 1u))));
-    bucket_triangles();
-    return true;
+    return bucket_triangles();
   }
 
   // Every intersecting pair once, to `visit(s, t)`, with the positions the grid was built from;
@@ -130,19 +129,6 @@ class Grid {
             }
           }
         }
-    const size_t oversized = ws_.oversized.size();
-    for (size_t i = 0; i < oversized; ++i) {
-      const uint32_t s = ws_.oversized[i];
-      for (uint32_t t = 0; t < mesh_.triangle_count; ++t) {
-        // Oversized × oversized once (the later of the two; both lists ascending).
-        if (t == s || (t < s && is_oversized(t))) continue;
-        if (!ws_.budget.spend()) return count;
-        if (stored_boxes_meet(s, t) && meet(s, t)) {
-          ++count;
-          visit(s, t);
-        }
-      }
-    }
     return count;
   }
 
@@ -182,7 +168,6 @@ class Grid {
           const size_t c = linear(x, y, z);
           for (uint32_t i = offsets[c]; i < offsets[c + 1]; ++i) consider(ws_.entries[i]);
         }
-    for (uint32_t t : ws_.oversized) consider(t);
   }
 
   // The intersecting pairs that the triangles around welded vertex v make now with the last
@@ -231,11 +216,13 @@ class Grid {
     return extent_sum;
   }
 
-  // Cells of the mean triangle size, coarsened until there are at most kCellsPerTriangle
-  // cells per triangle (a surface fills few of them), kMaxCellsPerAxis per axis, and the
-  // triangles' boxes cover at most the entries reserved (kEntriesPerTriangle per triangle). A
-  // mesh of very unequal triangles (a body of large ones, legs of small ones) would otherwise
-  // leave its large triangles past the reserve, each then tested against every triangle.
+  // Cells sized by the mean triangle, coarsened until there are at most kCellsPerTriangle cells
+  // per triangle (a surface fills few of them), fewer than kMaxCellsPerAxis per axis, and the
+  // triangles' boxes take at most the entries reserved (kEntriesPerTriangle per triangle): a
+  // mesh of very unequal triangles (a body of large ones, legs of small ones) needs cells
+  // coarser than its mean. Leaves each triangle's cells in ws.ranges. One cell fits any mesh,
+  // and 64 coarsenings by 1.26 reach it from the smallest start (largest · 1e-6); a non-finite
+  // extent goes straight to it.
   void choose_cells(const glm::vec3& extent, float largest, float mean_size) {
     const uint32_t n = mesh_.triangle_count;
     float cell = std::max(mean_size, largest * 1e-6f);
@@ -245,61 +232,51 @@ class Grid {
       inverse_cell_ = 1.0f / cell;
       const double cells = double(dims_[0]) * dims_[1] * dims_[2];
       if (cells <= double(kCellsPerTriangle) * std::max(n, 1u) && dims_[0] < kMaxCellsPerAxis &&
-          dims_[1] < kMaxCellsPerAxis && dims_[2] < kMaxCellsPerAxis && entries_fit())
-        break;
+          dims_[1] < kMaxCellsPerAxis && dims_[2] < kMaxCellsPerAxis && store_ranges())
+        return;
       cell *= 1.26f;
     }
-    if (double(dims_[0]) * dims_[1] * dims_[2] > double(kCellsPerTriangle) * std::max(n, 1u)) {
-      dims_[0] = dims_[1] = dims_[2] = 1;
-      inverse_cell_ = 1.0f / cell;
-    }
+    dims_[0] = dims_[1] = dims_[2] = 1;
+    store_ranges();
   }
 
-  // Do the cells of every triangle's box fit in the reserved entries?
-  bool entries_fit() const {
+  // Every triangle's cells (its stored box's) into ws.ranges; false as soon as they take more
+  // than the reserved entries.
+  bool store_ranges() {
     const uint64_t capacity = ws_.entries.size();
     uint64_t used = 0;
-    for (uint32_t t = 0; t < mesh_.triangle_count; ++t) {
-      used += cell_range(stored_lo(t), stored_hi(t)).cells();
-      if (used > capacity) return false;
-    }
-    return true;
-  }
-
-  // Counting sort of the triangles into their cells; a triangle past the reserved entries goes
-  // to the oversized list.
-  void bucket_triangles() {
-    const uint32_t n = mesh_.triangle_count;
-    const size_t cells = size_t(dims_[0]) * dims_[1] * dims_[2];
-    uint32_t* offsets = ws_.cell_offsets.data();
-    std::fill(offsets, offsets + cells + 1, 0u);
-    const uint32_t capacity = uint32_t(ws_.entries.size());
-    uint32_t used = 0;
-    ws_.oversized.clear();
     int16_t* ranges = ws_.ranges.data();
-    for (uint32_t t = 0; t < n; ++t) {
+    for (uint32_t t = 0; t < mesh_.triangle_count; ++t) {
       const CellRange r = cell_range(stored_lo(t), stored_hi(t));
       for (int k = 0; k < 3; ++k) {
         ranges[6 * size_t(t) + k] = int16_t(r.lo[k]);
         ranges[6 * size_t(t) + 3 + k] = int16_t(r.hi[k]);
       }
-      if (used + r.cells() > capacity) {
-        ws_.oversized.push_back(t);  // capacity reserved for every triangle: no allocation
-        continue;
-      }
+      used += r.cells();
+      if (used > capacity) return false;
+    }
+    return true;
+  }
+
+  // Counting sort of the triangles into the cells of their ranges. False if they do not fit
+  // the entries reserved (choose_cells makes them fit).
+  bool bucket_triangles() {
+    const uint32_t n = mesh_.triangle_count;
+    const size_t cells = size_t(dims_[0]) * dims_[1] * dims_[2];
+    uint32_t* offsets = ws_.cell_offsets.data();
+    std::fill(offsets, offsets + cells + 1, 0u);
+    uint64_t used = 0;
+    for (uint32_t t = 0; t < n; ++t) {
+      const CellRange r = range(t);
       used += r.cells();
       for (int z = r.lo[2]; z <= r.hi[2]; ++z)
         for (int y = r.lo[1]; y <= r.hi[1]; ++y)
           for (int x = r.lo[0]; x <= r.hi[0]; ++x) ++offsets[linear(x, y, z) + 1];
     }
+    if (used > ws_.entries.size()) return false;
     for (size_t c = 0; c < cells; ++c) offsets[c + 1] += offsets[c];
     // Fill (offsets[c] walks forward; shifted back after).
-    size_t next_oversized = 0;
     for (uint32_t t = 0; t < n; ++t) {
-      if (next_oversized < ws_.oversized.size() && ws_.oversized[next_oversized] == t) {
-        ++next_oversized;
-        continue;
-      }
       const CellRange r = range(t);
       for (int z = r.lo[2]; z <= r.hi[2]; ++z)
         for (int y = r.lo[1]; y <= r.hi[1]; ++y)
@@ -307,6 +284,7 @@ class Grid {
     }
     for (size_t c = cells; c > 0; --c) offsets[c] = offsets[c - 1];
     offsets[0] = 0;
+    return true;
   }
 
   void add_push(uint32_t v, uint32_t t, glm::vec3& push) const {
@@ -377,7 +355,6 @@ class Grid {
     const int16_t* r = ws_.ranges.data() + 6 * size_t(t);
     return {{r[0], r[1], r[2]}, {r[3], r[4], r[5]}};
   }
-  bool is_oversized(uint32_t t) const { return std::binary_search(ws_.oversized.begin(), ws_.oversized.end(), t); }
   size_t linear(int x, int y, int z) const {
     return (size_t(z) * size_t(dims_[1]) + size_t(y)) * size_t(dims_[0]) + size_t(x);
   }
@@ -407,7 +384,6 @@ ContactWorkspace make_contact_workspace(const ContactMesh& mesh, const Allocator
   ws.stamps.assign(mesh.triangle_count, 0u);
   ws.candidates.reserve(mesh.triangle_count);
   ws.entries.resize(size_t(kEntriesPerTriangle) * mesh.triangle_count);
-  ws.oversized.reserve(mesh.triangle_count);
   return ws;
 }
 
@@ -428,7 +404,6 @@ ContactStats resolve_contacts(const ContactMesh& mesh, float scale, glm::vec3* d
       if (!(blend.weight[i] >= kContactMinWeight)) ws.state[mesh.weld[i]] = 0;
   Grid grid(mesh, gap, ws);
   if (!grid.build(cap)) return stats;  // a non-finite position: leave the output as it is
-  stats.oversized = uint32_t(ws.oversized.size());
   ws.budget = PairBudget(mesh.triangle_count, kContactBudgetPasses);
   auto spent = [&] {
     stats.over_budget = ws.budget.left == 0;  // then move nothing: the counts were cut short

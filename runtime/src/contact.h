@@ -71,7 +71,6 @@ struct ContactWorkspace {
         active(a),
         cell_offsets(a),
         entries(a),
-        oversized(a),
         ranges(a),
         boxes(a),
         normals(a),
@@ -83,7 +82,6 @@ struct ContactWorkspace {
   Array<uint32_t> active;        // the active vertices, ascending
   Array<uint32_t> cell_offsets;  // broad-phase grid (CSR), at most 4 cells per triangle
   Array<uint32_t> entries;       // triangles per cell, 8 entries per triangle reserved
-  Array<uint32_t> oversized;     // triangles past the reserved entries: tested against all
   Array<int16_t> ranges;         // per triangle: its cells (lo xyz, hi xyz)
   Array<float> boxes;            // per triangle: its box when the pass began (lo xyz, hi xyz)
   Array<glm::vec3> normals;      // per triangle: its unit normal when the pass began (0 if degenerate)
@@ -102,7 +100,6 @@ ContactWorkspace make_contact_workspace(const ContactMesh& mesh, const Allocator
 struct ContactStats {
   uint32_t pairs_before = 0;  // intersecting pairs found by the first detection
   uint32_t moved = 0;         // welded vertices moved
-  uint32_t oversized = 0;     // triangles past the grid's reserved entries (each tested against all)
   bool over_budget = false;   // the pass ran out of its work budget and moved nothing
 };
 
