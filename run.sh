@@ -40,6 +40,10 @@ jobs=${JOBS:-$(nproc)}
 apt_packages=(g++ cmake make pkg-config libglm-dev libtinygltf-dev nlohmann-json3-dev libstb-dev libosd-dev
               libeigen3-dev libqhull-dev doctest-dev libmeshoptimizer-dev libbenchmark-dev)
 
+# Minutes:seconds since this script started, for the stage lines of a long run (CI's log
+# then shows where its time goes).
+since_start() { printf '%d:%02d' $((SECONDS / 60)) $((SECONDS % 60)); }
+
 # apt-get install of the given packages (through sudo unless root).
 apt_install() {
   local sudo=""
@@ -79,7 +83,7 @@ build() {
   while [ $# -gt 0 ]; do
     if [ "$1" = "--target" ]; then target+=(--target "$2"); shift 2; else configure+=("$1"); shift; fi
   done
-  echo "==> building in $dir"
+  echo "==> building in $dir (at $(since_start))"
   cmake -S "$root" -B "$dir" "${configure[@]}" >/dev/null
   cmake --build "$dir" -j "$jobs" "${target[@]}"
 }
@@ -88,27 +92,27 @@ run_tests() {
   install_validator
   # Every C/C++ source as .clang-format lays it out (clang-format 14).
   dpkg-query -W -f='${Status}' clang-format-14 2>/dev/null | grep -q "install ok installed" || apt_install clang-format-14
-  echo "==> format check"
+  echo "==> format check (at $(since_start))"
   "$root/tools/format.sh" --check
   build "$root/build" -DCMAKE_BUILD_TYPE=Release
-  echo "==> tests (Release)"
+  echo "==> tests (Release) (at $(since_start))"
   ctest --test-dir "$root/build" --output-on-failure -j "$jobs"
   # The runtime alone, as a port without the baker's dependencies builds it: its tests that
   # need no baking, on the committed baked capsule (tests/data/README.md).
   build "$root/build-runtime" -DCMAKE_BUILD_TYPE=Release -DSKELFORM_BUILD_BAKE=OFF \
         -DSKELFORM_BUILD_SAMPLES=OFF -DSKELFORM_BUILD_BENCH=OFF
-  echo "==> tests (runtime alone, SKELFORM_BUILD_BAKE=OFF)"
+  echo "==> tests (runtime alone, SKELFORM_BUILD_BAKE=OFF) (at $(since_start))"
   ctest --test-dir "$root/build-runtime" --output-on-failure -j "$jobs"
   build "$root/build-asan" -DCMAKE_BUILD_TYPE=RelWithDebInfo -DSKELFORM_SANITIZE=address,undefined \
         -DSKELFORM_BUILD_BENCH=OFF
-  echo "==> tests (AddressSanitizer + UndefinedBehaviorSanitizer)"
+  echo "==> tests (AddressSanitizer + UndefinedBehaviorSanitizer) (at $(since_start))"
   ASAN_OPTIONS=detect_leaks=1:abort_on_error=1 UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1 \
     ctest --test-dir "$root/build-asan" --output-on-failure -j "$jobs"
   # Instances evaluated on many threads at once must not race (DESIGN.md threading contract).
   build "$root/build-tsan" -DCMAKE_BUILD_TYPE=RelWithDebInfo -DSKELFORM_SANITIZE=thread \
         -DSKELFORM_BUILD_BENCH=OFF -DSKELFORM_BUILD_SAMPLES=OFF -DSKELFORM_TEST_FILES='runtime/threads_test\.cpp' \
         --target skelform_tests
-  echo "==> thread test (ThreadSanitizer)"
+  echo "==> thread test (ThreadSanitizer) (at $(since_start))"
   TSAN_OPTIONS=halt_on_error=1 ctest --test-dir "$root/build-tsan" --output-on-failure -R 'runtime/threads_test'
   # What users build too: clang, libskelform as a shared library (the C API exported,
   # everything else hidden), and code for this machine's own ISA (FMA wherever the CPU has
@@ -121,13 +125,14 @@ run_tests() {
   [ ${#clang_missing[@]} -eq 0 ] || apt_install "${clang_missing[@]}"
   CC=clang-14 CXX=clang++-14 build "$root/build-clang" -DCMAKE_BUILD_TYPE=Release -DBUILD_SHARED_LIBS=ON \
         -DCMAKE_C_FLAGS=-march=native -DCMAKE_CXX_FLAGS=-march=native -DSKELFORM_BUILD_BENCH=OFF
-  echo "==> tests (clang, shared library, -march=native)"
+  echo "==> tests (clang, shared library, -march=native) (at $(since_start))"
   ctest --test-dir "$root/build-clang" --output-on-failure -j "$jobs" -E 'samples/viewer'
   # libFuzzer (clang, ASan + UBSan) on the asset loader, the baker's readers and the handle
   # files, each for SKELFORM_FUZZ_SECONDS (default 30) from seeds made from the data dir and
   # the procedural character; any finding fails (tests/fuzz/run.sh).
-  echo "==> fuzzing"
+  echo "==> fuzzing (at $(since_start))"
   "$root/tests/fuzz/run.sh" "${SKELFORM_FUZZ_SECONDS:-30}"
+  echo "==> every test stage passed (at $(since_start))"
 }
 
 run_main_job() {
