@@ -159,6 +159,8 @@ class Grid {
       glm::vec3 a, b;
       box(t, a, b);
       if (a.x > hi.x || lo.x > b.x || a.y > hi.y || lo.y > b.y || a.z > hi.z || lo.z > b.z) return;
+      float* stored = ws_.candidate_boxes.data() + 6 * ws_.candidates.size();
+      stored[0] = a.x, stored[1] = a.y, stored[2] = a.z, stored[3] = b.x, stored[4] = b.y, stored[5] = b.z;
       ws_.candidates.push_back(t);  // at most every triangle: reserved
     };
     const CellRange r = cell_range(lo - glm::vec3(pad_), hi + glm::vec3(pad_));
@@ -175,17 +177,23 @@ class Grid {
   // where v lies behind t's plane or less than the gap in front of it, half the way out to the
   // gap along t's normal (t's corners take the other half when they are pushed in turn).
   // Like gather(), each triangle it looks at spends one of ws.budget, and a spent budget ends it.
+  // A candidate's box is the one gather() stored: only v moves until the next gather, and a
+  // triangle around v (whose stored box may be stale) shares v with every triangle of its
+  // star, so meet() never counts it.
   uint32_t pairs_around(uint32_t v, glm::vec3* push) const {
     uint32_t count = 0;
+    const size_t candidates = ws_.candidates.size();
+    const float* boxes = ws_.candidate_boxes.data();
     for (uint32_t k = mesh_.incident_offsets[v]; k < mesh_.incident_offsets[v + 1]; ++k) {
       const uint32_t s = mesh_.incident[k];
       glm::vec3 a, b;
       box(s, a, b);
-      for (uint32_t t : ws_.candidates) {
+      for (size_t i = 0; i < candidates; ++i) {
         if (!ws_.budget.spend()) return count;
-        glm::vec3 c, d;
-        box(t, c, d);
-        if (a.x > d.x || c.x > b.x || a.y > d.y || c.y > b.y || a.z > d.z || c.z > b.z || !meet(s, t)) continue;
+        const float* c = boxes + 6 * i;
+        if (a.x > c[3] || c[0] > b.x || a.y > c[4] || c[1] > b.y || a.z > c[5] || c[2] > b.z) continue;
+        const uint32_t t = ws_.candidates[i];
+        if (!meet(s, t)) continue;
         ++count;
         if (push) add_push(v, t, *push);
       }
@@ -383,6 +391,7 @@ ContactWorkspace make_contact_workspace(const ContactMesh& mesh, const Allocator
   ws.normals.resize(mesh.triangle_count);
   ws.stamps.assign(mesh.triangle_count, 0u);
   ws.candidates.reserve(mesh.triangle_count);
+  ws.candidate_boxes.resize(6 * size_t(mesh.triangle_count));
   ws.entries.resize(size_t(kEntriesPerTriangle) * mesh.triangle_count);
   return ws;
 }

@@ -75,7 +75,8 @@ struct ContactWorkspace {
         boxes(a),
         normals(a),
         stamps(a),
-        candidates(a) {}
+        candidates(a),
+        candidate_boxes(a) {}
   Array<glm::vec3> positions;    // welded positions
   Array<glm::vec3> start;        // position of each active vertex when the pass began
   Array<uint8_t> state;          // per welded vertex: movable, active (in a detected pair), moved
@@ -87,6 +88,7 @@ struct ContactWorkspace {
   Array<glm::vec3> normals;      // per triangle: its unit normal when the pass began (0 if degenerate)
   Array<uint32_t> stamps;        // per triangle: the last gather that listed it
   Array<uint32_t> candidates;    // the last gather's triangles
+  Array<float> candidate_boxes;  // their boxes when gathered (lo xyz, hi xyz), 6 per triangle reserved
   uint32_t stamp = 0;
   // This pass's work: every triangle pair a search or a push visits spends one. A surface
   // tangled over itself would make the pass quadratic (all boxes meeting all boxes); past
