@@ -200,9 +200,16 @@ struct DenseOutput {
 void displace(const Deformable& d, const glm::vec3* control, const glm::vec3* skeletal, glm::vec3* control_normal_sums,
               glm::vec3* refined_positions, glm::vec3* refined_normals, bool with_normals, const DenseOutput& out);
 
-// dense_skinning.cpp. The baselines on the original vertices (dense_joints/dense_weights).
+// dense_skinning.cpp. The baselines on the original vertices (dense_joints/dense_weights),
+// LBS by the fastest kernel this build and CPU run.
 void dense_skinning(const Deformable& d, const JointTransforms& joints, Blend blend, bool with_normals,
                     const DenseOutput& out);
+// LBS's kernels one by one, for the tests that hold each to the portable loop's bits. An
+// unavailable kernel (linear_kernel_available false) runs the portable loop.
+enum class LinearKernel : uint8_t { portable, sse2, avx2 };
+bool linear_kernel_available(LinearKernel kernel);
+void dense_skinning_linear(const Deformable& d, const JointTransforms& joints, LinearKernel kernel, bool with_normals,
+                           const DenseOutput& out);
 
 }  // namespace skelform::runtime
 
