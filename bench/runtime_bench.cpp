@@ -13,6 +13,9 @@
 //               checked against SF_METHOD_LBS on the first poses (stderr gives the largest
 //               difference, in diagonals) and the run fails if they differ by over 1e-6
 //   lbs, dqs    the runtime's baselines (SF_METHOD_LBS / SF_METHOD_DQS), same calls
+//   lbs_range   SF_METHOD_LBS as an engine's skinning job calls it: sf_instance_skin_range of
+//               every primitive straight into an interleaved vertex buffer like lbs_optimised's
+//               (checked at start-up to give SF_METHOD_LBS's floats bit for bit)
 //   delta_mush  Delta Mush with 10 smoothing iterations (bench/delta_mush.h), positions only
 // on CesiumMan (3,273 vertices), CesiumMan Loop-subdivided twice (~75K triangles), each posed by
 // CesiumMan's own animation, and the Quaternius Horse (a quadruped as it ships, skipped when
@@ -28,7 +31,7 @@
 //   skelform-bench --json [--smoke] [--cpu] [--runs N]  one JSON line per mesh:
 //     {"mesh": name, "vertices": n, "ms": {"skelform": .., "skelform_unfaired": ..,
 //      "skelform_semi_implicit": .., "skelform_contacts": .., "lbs_optimised": ..,
-//      "lbs": .., "dqs": .., "delta_mush": ..}}
+//      "lbs": .., "lbs_range": .., "dqs": .., "delta_mush": ..}}
 //     each figure the median of timed evaluations, the methods taking turns frame by frame
 //     (--smoke: a handful, for CI), with --runs N the median of N such medians; wall time, or
 //     with --cpu the thread's CPU time (the fairer figure on a loaded machine)
@@ -78,15 +81,17 @@ enum class Method {
   skelform_contacts,
   lbs_optimised,
   lbs,
+  lbs_range,
   dqs,
   delta_mush
 };
-constexpr std::array<Method, 8> kMethods = {Method::skelform,
+constexpr std::array<Method, 9> kMethods = {Method::skelform,
                                             Method::skelform_unfaired,
                                             Method::skelform_semi_implicit,
                                             Method::skelform_contacts,
                                             Method::lbs_optimised,
                                             Method::lbs,
+                                            Method::lbs_range,
                                             Method::dqs,
                                             Method::delta_mush};
 // Methods that run through the C API (an sf_instance each).
@@ -106,6 +111,8 @@ const char* method_name(Method method) {
       return "lbs_optimised";
     case Method::lbs:
       return "lbs";
+    case Method::lbs_range:
+      return "lbs_range";
     case Method::dqs:
       return "dqs";
     case Method::delta_mush:
@@ -257,7 +264,9 @@ class Scene {
 
     lbs_optimised_ = model_.make_fast_lbs(instances_[static_cast<size_t>(Method::lbs)]);
     vertex_buffer_.resize(kVertexStride * size_t{info.vertex_count});
+    range_buffer_.resize(kVertexStride * size_t{info.vertex_count});
     check_lbs_optimised();
+    check_lbs_range();
   }
   Scene(const Scene&) = delete;
   Scene& operator=(const Scene&) = delete;
@@ -292,6 +301,22 @@ class Scene {
     sf_instance* instance = instances_[static_cast<size_t>(method)];
     check(sf_instance_set_joint_matrices(instance, matrices.data(), model_.info.joint_count, 0),
           "sf_instance_set_joint_matrices", instance);
+    if (method == Method::lbs_range) {
+      // An engine's skinning job through the API: every primitive straight into the
+      // interleaved vertex buffer, as lbs_optimised writes it.
+      for (uint32_t p = 0; p < model_.primitives.size(); ++p) {
+        const sf_primitive_info& primitive = model_.primitives[p];
+        sf_vertex_output output{};
+        output.positions = range_buffer_.data() + kVertexStride * size_t{primitive.first_vertex};
+        output.position_stride = kVertexStride * sizeof(float);
+        output.normals = output.positions + 3;
+        output.normal_stride = output.position_stride;
+        output.vertex_capacity = primitive.vertex_count;
+        check(sf_instance_skin_range(instance, SF_METHOD_LBS, p, 0, primitive.vertex_count, &output),
+              "sf_instance_skin_range");
+      }
+      return;
+    }
     sf_eval_options options{};  // defaults (fairing as the runtime ships it), incremental
     options.method = method == Method::lbs ? SF_METHOD_LBS : method == Method::dqs ? SF_METHOD_DQS : SF_METHOD_SKELFORM;
     if (method == Method::skelform_unfaired) options.fairing_flags = SF_FAIR_OFF;
@@ -332,6 +357,19 @@ class Scene {
       throw std::runtime_error(name_ + ": lbs_optimised does not match SF_METHOD_LBS");
   }
 
+  // lbs_range gives SF_METHOD_LBS's floats bit for bit, on the first poses.
+  void check_lbs_range() {
+    const size_t n = model_.info.vertex_count;
+    for (size_t pose = 0; pose < std::min<size_t>(model_.poses.size(), 8); ++pose) {
+      evaluate_api(Method::lbs, model_.poses[pose]);
+      evaluate_api(Method::lbs_range, model_.poses[pose]);
+      for (size_t v = 0; v < n; ++v)
+        if (std::memcmp(&range_buffer_[kVertexStride * v], &positions_[3 * v], 3 * sizeof(float)) != 0 ||
+            std::memcmp(&range_buffer_[kVertexStride * v + 3], &normals_[3 * v], 3 * sizeof(float)) != 0)
+          throw std::runtime_error(name_ + ": lbs_range differs from SF_METHOD_LBS");
+    }
+  }
+
   std::string name_;
   Model model_;
   std::array<sf_instance*, kMethods.size()> instances_{};  // indexed by Method (null where not through_api)
@@ -339,6 +377,7 @@ class Scene {
   std::unique_ptr<FastLbs> lbs_optimised_;
   std::vector<float> positions_, normals_;
   std::vector<float> vertex_buffer_;  // the optimised LBS's interleaved output
+  std::vector<float> range_buffer_;   // lbs_range's, laid out alike
 };
 
 // Scenes are expensive (bake on first use): built once per process.

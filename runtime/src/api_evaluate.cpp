@@ -216,15 +216,20 @@ sf_result evaluate(sf_instance& instance, const sf_eval_options& options) {
   const uint32_t fairing_iterations = instance.fairing.last_iterations;
   const float fairing_residual = instance.fairing.last_residual;
   float scale = 1.0f;
-  if (skelform)
+  bool finite;
+  if (skelform) {
     evaluate_skelform(instance, options, with_normals, result, scale);
-  else
-    dense_skinning(d, instance.joints, options.method == SF_METHOD_LBS ? Blend::linear : Blend::dual_quaternion,
-                   with_normals, result);
+    finite = output_finite(d, result, with_normals);
+  } else {
+    // The kernels check their positions as they go; their normals and tangents are finite.
+    finite =
+        dense_skinning(d, instance.joints, options.method == SF_METHOD_LBS ? Blend::linear : Blend::dual_quaternion,
+                       with_normals, result);
+  }
 
   // Output that would not be finite is refused before it replaces the last output. The
   // refused pose's fairing correction is no warm start for the next evaluation.
-  if (!output_finite(d, result, with_normals)) {
+  if (!finite) {
     instance.fairing.has_offset = false;
     instance.fairing.last_iterations = fairing_iterations;
     instance.fairing.last_residual = fairing_residual;

@@ -63,6 +63,43 @@ sf_result sf_instance_write(const sf_instance* instance, uint32_t primitive, con
   });
 }
 
+sf_result sf_instance_skin_range(const sf_instance* instance, uint32_t method, uint32_t primitive,
+                                 uint32_t first_vertex, uint32_t vertex_count, const sf_vertex_output* output) {
+  // Codes only, no message: a message is instance state, and calls on disjoint ranges of one
+  // instance run on several threads at once (skelform.h).
+  if (!instance || !output) return SF_ERROR_INVALID_ARGUMENT;
+  const Deformable& d = *instance->deformable;
+  if (method != SF_METHOD_LBS && method != SF_METHOD_DQS)
+    return method == SF_METHOD_SKELFORM ? SF_ERROR_UNSUPPORTED : SF_ERROR_INVALID_ARGUMENT;
+  if (primitive >= d.primitives.size()) return SF_ERROR_INVALID_ARGUMENT;
+  const PrimitiveRecord& p = d.primitives[primitive];
+  if (first_vertex > p.vertex_count || vertex_count > p.vertex_count - first_vertex ||
+      output->vertex_capacity < vertex_count)
+    return SF_ERROR_INVALID_ARGUMENT;
+  const size_t position_stride = output->position_stride ? output->position_stride : 12;
+  const size_t normal_stride = output->normal_stride ? output->normal_stride : 12;
+  const size_t tangent_stride = output->tangent_stride ? output->tangent_stride : 16;
+  if ((output->positions && position_stride < 12) || (output->normals && normal_stride < 12) ||
+      (output->tangents && tangent_stride < 16))
+    return SF_ERROR_INVALID_ARGUMENT;
+  if (output->tangents && !p.has_tangents) return SF_ERROR_UNSUPPORTED;
+  if (d.joint_count == 0 || d.influences == 0 || instance->driver != Driver::skin) return SF_ERROR_UNSUPPORTED;
+  // Positions are always computed (their finiteness is the result); without a stream they go
+  // to one scratch element, stride 0.
+  float scratch[3];
+  const bool positions = output->positions != nullptr;
+  const StridedOutput out{reinterpret_cast<unsigned char*>(positions ? output->positions : scratch),
+                          positions ? position_stride : 0,
+                          reinterpret_cast<unsigned char*>(output->normals),
+                          normal_stride,
+                          reinterpret_cast<unsigned char*>(output->tangents),
+                          tangent_stride};
+  const Blend blend = method == SF_METHOD_LBS ? Blend::linear : Blend::dual_quaternion;
+  return dense_skinning_range(d, instance->joints, blend, primitive, first_vertex, vertex_count, out)
+             ? SF_OK
+             : SF_ERROR_INVALID_ARGUMENT;
+}
+
 sf_result sf_instance_write_coarse(const sf_instance* instance, uint32_t mesh, float* positions, size_t stride_bytes,
                                    size_t vertex_capacity) {
   if (!instance) return SF_ERROR_INVALID_ARGUMENT;

@@ -7,7 +7,13 @@
 //
 // Normals and tangents go through the blended matrix's linear part and are renormalised (the
 // usual engine shortcut, exact for rigid and uniformly scaled blends); tangent w is kept.
+//
+// Every kernel works on a range of one primitive's vertices and writes through a sink: the
+// instance's arrays (sf_instance_evaluate) or the caller's strided streams
+// (sf_instance_skin_range), the same floats either way.
 #include "instance.h"
+
+#include <cstring>
 
 #if defined(__SSE2__)
 #  include <emmintrin.h>
@@ -21,39 +27,71 @@ namespace skelform::runtime {
 
 namespace {
 
-// The loop every kernel shares: kernel(v, tangents) for every dense vertex, primitive by
-// primitive (`tangents`: the vertex's primitive has tangents to write).
-template <class Kernel>
-void for_each_dense_vertex(const Deformable& d, bool with_normals, const DenseOutput& out, Kernel&& kernel) {
-  for (const PrimitiveRecord& primitive : d.primitives) {
-    const uint32_t end = primitive.first_vertex + primitive.vertex_count;
-    const bool tangents = with_normals && primitive.has_tangents && out.tangents;
-    for (uint32_t v = primitive.first_vertex; v < end; ++v) kernel(v, tangents);
-  }
-}
+// Where a kernel puts vertex v's position, normal and tangent: the instance's arrays, indexed
+// by dense vertex.
+struct ArraySink {
+  const DenseOutput& out;
+  void* position(uint32_t v) const { return &out.positions[v]; }
+  void* normal(uint32_t v) const { return &out.normals[v]; }
+  void* tangent(uint32_t v) const { return &out.tangents[v]; }
+};
+
+// The caller's strided streams (StridedOutput), element 0 being vertex `first`.
+struct StridedSink {
+  const StridedOutput& out;
+  uint32_t first;
+  void* position(uint32_t v) const { return out.positions + size_t(v - first) * out.position_stride; }
+  void* normal(uint32_t v) const { return out.normals + size_t(v - first) * out.normal_stride; }
+  void* tangent(uint32_t v) const { return out.tangents + size_t(v - first) * out.tangent_stride; }
+};
+
+inline void put3(void* out, const glm::vec3& value) { std::memcpy(out, &value, sizeof value); }
+inline void put4(void* out, const glm::vec4& value) { std::memcpy(out, &value, sizeof value); }
 
 // A rest tangent through the blended matrix m's linear part, renormalised, w kept.
 inline glm::vec4 skinned_tangent(const float* m, const glm::vec4& rest) {
   return glm::vec4(normalize_or(transform_vector(m, glm::vec3(rest)), glm::vec3(rest)), rest.w);
 }
 
+// What a kernel skins: vertices [begin, end) of one primitive, normals (and, where the
+// primitive has them, tangents) or positions only.
+struct Range {
+  uint32_t begin, end;
+  bool normals, tangents;
+};
+
 #if defined(__SSE2__)
+// Stores lanes 0-2 (nothing past them: the caller's element may end there).
+inline void store3(void* out, __m128 v) {
+  _mm_storel_pi(static_cast<__m64*>(out), v);
+  _mm_store_ss(static_cast<float*>(out) + 2, _mm_movehl_ps(v, v));
+}
+
+// Lanes 0-2 of the OR of every position: any lane not finite leaves a NaN in `sticky`
+// (x·0 is NaN exactly for an infinite or NaN x, and NaN stays NaN under addition).
+inline __m128 accumulate_non_finite(__m128 sticky, __m128 position) {
+  return _mm_add_ps(sticky, _mm_mul_ps(position, _mm_setzero_ps()));
+}
+
+inline bool lanes_finite(__m128 sticky) {
+  alignas(16) float lanes[4];
+  _mm_store_ps(lanes, sticky);
+  return lanes[0] == 0.0f && lanes[1] == 0.0f && lanes[2] == 0.0f;  // lane 3: the bottom row, not output
+}
+
 // LBS four lanes at a time, bit for bit the portable kernel's result: the blend adds w·row in
 // influence order (the same multiply and add per element), the rows are transposed to columns
 // so that x' = ((c0·x + c1·y) + c2·z) + c3 per lane is transform_point's sum in its order, and
 // the normal's length is (x² + y²) + z² as glm::dot sums it. Tangents take the portable path.
-inline void store3(glm::vec3& out, __m128 v) {
-  _mm_storel_pi(reinterpret_cast<__m64*>(&out.x), v);
-  _mm_store_ss(&out.z, _mm_movehl_ps(v, v));
-}
-
-void skin_linear_sse2(const Deformable& d, const JointAffine* joints, bool with_normals, const DenseOutput& out) {
+template <class Sink>
+bool skin_linear_sse2(const Deformable& d, const JointAffine* joints, const Range& range, const Sink& sink) {
   const uint32_t influences = d.influences;
   const uint16_t* joint_index = d.dense_joints.data();
   const float* weight = d.dense_weights.data();
   const glm::vec3* rest_positions = d.rest_positions.data();
   const glm::vec3* rest_normals = d.rest_normals.data();
-  for_each_dense_vertex(d, with_normals, out, [&](uint32_t v, bool tangents) {
+  __m128 sticky = _mm_setzero_ps();
+  for (uint32_t v = range.begin; v < range.end; ++v) {
     const size_t first = size_t(v) * influences;
     __m128 r0 = _mm_setzero_ps(), r1 = r0, r2 = r0;
     for (uint32_t k = 0; k < influences; ++k) {
@@ -67,8 +105,10 @@ void skin_linear_sse2(const Deformable& d, const JointAffine* joints, bool with_
     _MM_TRANSPOSE4_PS(c0, c1, c2, c3);
     const glm::vec3 p = rest_positions[v];
     const __m128 xy = _mm_add_ps(_mm_mul_ps(c0, _mm_set1_ps(p.x)), _mm_mul_ps(c1, _mm_set1_ps(p.y)));
-    store3(out.positions[v], _mm_add_ps(_mm_add_ps(xy, _mm_mul_ps(c2, _mm_set1_ps(p.z))), c3));
-    if (with_normals) {
+    const __m128 position = _mm_add_ps(_mm_add_ps(xy, _mm_mul_ps(c2, _mm_set1_ps(p.z))), c3);
+    sticky = accumulate_non_finite(sticky, position);
+    store3(sink.position(v), position);
+    if (range.normals) {
       const glm::vec3 n = rest_normals[v];
       const __m128 t = _mm_add_ps(_mm_add_ps(_mm_mul_ps(c0, _mm_set1_ps(n.x)), _mm_mul_ps(c1, _mm_set1_ps(n.y))),
                                   _mm_mul_ps(c2, _mm_set1_ps(n.z)));
@@ -76,18 +116,19 @@ void skin_linear_sse2(const Deformable& d, const JointAffine* joints, bool with_
       const __m128 sum = _mm_add_ss(_mm_add_ss(sq, _mm_shuffle_ps(sq, sq, 1)), _mm_movehl_ps(sq, sq));
       const float length = _mm_cvtss_f32(_mm_sqrt_ss(sum));
       if (length > 1e-30f && std::isfinite(length))
-        store3(out.normals[v], _mm_div_ps(t, _mm_set1_ps(length)));
+        store3(sink.normal(v), _mm_div_ps(t, _mm_set1_ps(length)));
       else
-        out.normals[v] = n;
+        put3(sink.normal(v), n);
     }
-    if (tangents) {
+    if (range.tangents) {
       alignas(16) float m[12];
       _mm_store_ps(m, r0);
       _mm_store_ps(m + 4, r1);
       _mm_store_ps(m + 8, r2);
-      out.tangents[v] = skinned_tangent(m, d.rest_tangents[v]);
+      put4(sink.tangent(v), skinned_tangent(m, d.rest_tangents[v]));
     }
-  });
+  }
+  return lanes_finite(sticky);
 }
 #endif
 
@@ -99,16 +140,16 @@ void skin_linear_sse2(const Deformable& d, const JointAffine* joints, bool with_
 // each and the transpose; each element is still w·m added in influence order, and the
 // position and normal sums are the SSE2 kernel's. No FMA: one rounding instead of two would
 // change the bits (and the build turns contraction off for the same reason).
-template <uint32_t kInfluences>
-__attribute__((target("avx2"))) void skin_linear_avx2_range(const Deformable& d, const glm::mat4* matrices,
-                                                            bool with_normals, bool tangents, uint32_t begin,
-                                                            uint32_t end, const DenseOutput& out) {
+template <uint32_t kInfluences, class Sink>
+__attribute__((target("avx2"))) bool skin_linear_avx2(const Deformable& d, const glm::mat4* matrices,
+                                                      const Range& range, const Sink& sink) {
   const uint32_t influences = kInfluences != 0 ? kInfluences : d.influences;
   const uint16_t* joint_index = d.dense_joints.data();
   const float* weight = d.dense_weights.data();
   const glm::vec3* rest_positions = d.rest_positions.data();
   const glm::vec3* rest_normals = d.rest_normals.data();
-  for (uint32_t v = begin; v < end; ++v) {
+  __m128 sticky = _mm_setzero_ps();
+  for (uint32_t v = range.begin; v < range.end; ++v) {
     const size_t first = size_t(v) * influences;
     __m256 a = _mm256_setzero_ps(), b = a;  // columns 0|1, 2|3 (lane 3 of each: the bottom row, unused)
     for (uint32_t k = 0; k < influences; ++k) {
@@ -121,8 +162,10 @@ __attribute__((target("avx2"))) void skin_linear_avx2_range(const Deformable& d,
     const __m128 c2 = _mm256_castps256_ps128(b), c3 = _mm256_extractf128_ps(b, 1);
     const float* p = &rest_positions[v].x;
     const __m128 xy = _mm_add_ps(_mm_mul_ps(c0, _mm_broadcast_ss(p)), _mm_mul_ps(c1, _mm_broadcast_ss(p + 1)));
-    store3(out.positions[v], _mm_add_ps(_mm_add_ps(xy, _mm_mul_ps(c2, _mm_broadcast_ss(p + 2))), c3));
-    if (with_normals) {
+    const __m128 position = _mm_add_ps(_mm_add_ps(xy, _mm_mul_ps(c2, _mm_broadcast_ss(p + 2))), c3);
+    sticky = accumulate_non_finite(sticky, position);
+    store3(sink.position(v), position);
+    if (range.normals) {
       const float* n = &rest_normals[v].x;
       const __m128 t =
           _mm_add_ps(_mm_add_ps(_mm_mul_ps(c0, _mm_broadcast_ss(n)), _mm_mul_ps(c1, _mm_broadcast_ss(n + 1))),
@@ -131,33 +174,28 @@ __attribute__((target("avx2"))) void skin_linear_avx2_range(const Deformable& d,
       const __m128 sum = _mm_add_ss(_mm_add_ss(sq, _mm_shuffle_ps(sq, sq, 1)), _mm_movehl_ps(sq, sq));
       const float length = _mm_cvtss_f32(_mm_sqrt_ss(sum));
       if (length > 1e-30f && std::isfinite(length))
-        store3(out.normals[v], _mm_div_ps(t, _mm_set1_ps(length)));
+        store3(sink.normal(v), _mm_div_ps(t, _mm_set1_ps(length)));
       else
-        out.normals[v] = rest_normals[v];
+        put3(sink.normal(v), rest_normals[v]);
     }
-    if (tangents) {
+    if (range.tangents) {
       alignas(32) float columns[16];
       _mm256_store_ps(columns, a);
       _mm256_store_ps(columns + 8, b);
       float m[12];
       for (int r = 0; r < 3; ++r)
         for (int c = 0; c < 4; ++c) m[4 * r + c] = columns[4 * c + r];
-      out.tangents[v] = skinned_tangent(m, d.rest_tangents[v]);
+      put4(sink.tangent(v), skinned_tangent(m, d.rest_tangents[v]));
     }
   }
+  return lanes_finite(sticky);
 }
 
-void skin_linear_avx2(const Deformable& d, const glm::mat4* matrices, bool with_normals, const DenseOutput& out) {
-  for (const PrimitiveRecord& primitive : d.primitives) {
-    const uint32_t begin = primitive.first_vertex, end = begin + primitive.vertex_count;
-    const bool tangents = with_normals && primitive.has_tangents && out.tangents;
-    if (d.influences == 4)
-      skin_linear_avx2_range<4>(d, matrices, with_normals, tangents, begin, end, out);
-    else if (d.influences == 8)
-      skin_linear_avx2_range<8>(d, matrices, with_normals, tangents, begin, end, out);
-    else
-      skin_linear_avx2_range<0>(d, matrices, with_normals, tangents, begin, end, out);
-  }
+template <class Sink>
+bool skin_linear_avx2_any(const Deformable& d, const glm::mat4* matrices, const Range& range, const Sink& sink) {
+  if (d.influences == 4) return skin_linear_avx2<4>(d, matrices, range, sink);
+  if (d.influences == 8) return skin_linear_avx2<8>(d, matrices, range, sink);
+  return skin_linear_avx2<0>(d, matrices, range, sink);
 }
 
 bool cpu_has_avx2() {
@@ -169,22 +207,73 @@ bool cpu_has_avx2() {
 }
 #endif
 
-// One instantiation per blend so the per-vertex kernel is a direct call the compiler can inline.
-template <class Joint, void (*BlendFn)(const Joint*, const uint16_t*, const float*, uint32_t, float*)>
-void skin_vertices(const Deformable& d, const Joint* joints, bool with_normals, const DenseOutput& out) {
+// The portable loop, one instantiation per blend so the per-vertex kernel is a direct call
+// the compiler can inline.
+template <class Joint, void (*BlendFn)(const Joint*, const uint16_t*, const float*, uint32_t, float*), class Sink>
+bool skin_vertices(const Deformable& d, const Joint* joints, const Range& range, const Sink& sink) {
   const uint32_t influences = d.influences;
   const uint16_t* joint_index = d.dense_joints.data();
   const float* weight = d.dense_weights.data();
   const glm::vec3* rest_positions = d.rest_positions.data();
   const glm::vec3* rest_normals = d.rest_normals.data();
-  for_each_dense_vertex(d, with_normals, out, [&](uint32_t v, bool tangents) {
+  bool finite = true;
+  for (uint32_t v = range.begin; v < range.end; ++v) {
     const size_t first = size_t(v) * influences;
     float m[12];
     BlendFn(joints, joint_index + first, weight + first, influences, m);
-    out.positions[v] = transform_point(m, rest_positions[v]);
-    if (with_normals) out.normals[v] = normalize_or(transform_vector(m, rest_normals[v]), rest_normals[v]);
-    if (tangents) out.tangents[v] = skinned_tangent(m, d.rest_tangents[v]);
-  });
+    const glm::vec3 position = transform_point(m, rest_positions[v]);
+    finite &= std::isfinite(position.x) && std::isfinite(position.y) && std::isfinite(position.z);
+    put3(sink.position(v), position);
+    if (range.normals) put3(sink.normal(v), normalize_or(transform_vector(m, rest_normals[v]), rest_normals[v]));
+    if (range.tangents) put4(sink.tangent(v), skinned_tangent(m, d.rest_tangents[v]));
+  }
+  return finite;
+}
+
+// One range through the chosen kernel (an unavailable one runs the portable loop).
+template <class Sink>
+bool skin_range(const Deformable& d, const JointTransforms& joints, Blend blend, LinearKernel kernel,
+                const Range& range, const Sink& sink) {
+  if (blend == Blend::dual_quaternion)
+    return skin_vertices<JointDualQuaternion, blend_dual_quaternion>(d, joints.dual_quaternion.data(), range, sink);
+  switch (kernel) {
+#if defined(SKELFORM_SKINNING_AVX2)
+    case LinearKernel::avx2:
+      if (cpu_has_avx2()) return skin_linear_avx2_any(d, joints.matrices.data(), range, sink);
+      break;
+#endif
+#if defined(__SSE2__)
+    case LinearKernel::sse2:
+      return skin_linear_sse2(d, joints.affine.data(), range, sink);
+#endif
+    default:
+      break;
+  }
+  return skin_vertices<JointAffine, blend_affine>(d, joints.affine.data(), range, sink);
+}
+
+// The fastest kernel this build and CPU run.
+LinearKernel best_linear_kernel() {
+#if defined(SKELFORM_SKINNING_AVX2)
+  if (cpu_has_avx2()) return LinearKernel::avx2;
+#endif
+#if defined(__SSE2__)
+  return LinearKernel::sse2;
+#else
+  return LinearKernel::portable;
+#endif
+}
+
+bool skin_all(const Deformable& d, const JointTransforms& joints, Blend blend, LinearKernel kernel, bool with_normals,
+              const DenseOutput& out) {
+  bool finite = true;
+  const ArraySink sink{out};
+  for (const PrimitiveRecord& primitive : d.primitives) {
+    const Range range{primitive.first_vertex, primitive.first_vertex + primitive.vertex_count, with_normals,
+                      with_normals && primitive.has_tangents && out.tangents};
+    finite &= skin_range(d, joints, blend, kernel, range, sink);
+  }
+  return finite;
 }
 
 }  // namespace
@@ -209,38 +298,22 @@ bool linear_kernel_available(LinearKernel kernel) {
   return false;
 }
 
-void dense_skinning_linear(const Deformable& d, const JointTransforms& joints, LinearKernel kernel, bool with_normals,
+bool dense_skinning_linear(const Deformable& d, const JointTransforms& joints, LinearKernel kernel, bool with_normals,
                            const DenseOutput& out) {
-  switch (kernel) {
-#if defined(SKELFORM_SKINNING_AVX2)
-    case LinearKernel::avx2:
-      if (cpu_has_avx2()) return skin_linear_avx2(d, joints.matrices.data(), with_normals, out);
-      break;
-#endif
-#if defined(__SSE2__)
-    case LinearKernel::sse2:
-      return skin_linear_sse2(d, joints.affine.data(), with_normals, out);
-#endif
-    default:
-      break;
-  }
-  skin_vertices<JointAffine, blend_affine>(d, joints.affine.data(), with_normals, out);
+  return skin_all(d, joints, Blend::linear, kernel, with_normals, out);
 }
 
-void dense_skinning(const Deformable& d, const JointTransforms& joints, Blend blend, bool with_normals,
+bool dense_skinning(const Deformable& d, const JointTransforms& joints, Blend blend, bool with_normals,
                     const DenseOutput& out) {
-  if (blend == Blend::linear) {
-#if defined(SKELFORM_SKINNING_AVX2)
-    if (cpu_has_avx2()) return skin_linear_avx2(d, joints.matrices.data(), with_normals, out);
-#endif
-#if defined(__SSE2__)
-    skin_linear_sse2(d, joints.affine.data(), with_normals, out);
-#else
-    skin_vertices<JointAffine, blend_affine>(d, joints.affine.data(), with_normals, out);
-#endif
-  } else {
-    skin_vertices<JointDualQuaternion, blend_dual_quaternion>(d, joints.dual_quaternion.data(), with_normals, out);
-  }
+  return skin_all(d, joints, blend, best_linear_kernel(), with_normals, out);
+}
+
+bool dense_skinning_range(const Deformable& d, const JointTransforms& joints, Blend blend, uint32_t primitive,
+                          uint32_t first, uint32_t count, const StridedOutput& out) {
+  const PrimitiveRecord& p = d.primitives[primitive];
+  const uint32_t begin = p.first_vertex + first;
+  const Range range{begin, begin + count, out.normals != nullptr, out.tangents != nullptr};
+  return skin_range(d, joints, blend, best_linear_kernel(), range, StridedSink{out, begin});
 }
 
 }  // namespace skelform::runtime

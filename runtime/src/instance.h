@@ -201,14 +201,29 @@ void displace(const Deformable& d, const glm::vec3* control, const glm::vec3* sk
               glm::vec3* refined_positions, glm::vec3* refined_normals, bool with_normals, const DenseOutput& out);
 
 // dense_skinning.cpp. The baselines on the original vertices (dense_joints/dense_weights),
-// LBS by the fastest kernel this build and CPU run.
-void dense_skinning(const Deformable& d, const JointTransforms& joints, Blend blend, bool with_normals,
+// LBS by the fastest kernel this build and CPU run. False when a position is not finite (a
+// pose too large for the asset; normals and tangents are always finite).
+bool dense_skinning(const Deformable& d, const JointTransforms& joints, Blend blend, bool with_normals,
                     const DenseOutput& out);
+// The caller's strided streams (sf_vertex_output with its strides resolved): element 0 is
+// the range's first vertex; null normals/tangents are not written, positions never null.
+struct StridedOutput {
+  unsigned char* positions;
+  size_t position_stride;
+  unsigned char* normals;
+  size_t normal_stride;
+  unsigned char* tangents;  // only for a primitive with tangents
+  size_t tangent_stride;
+};
+// Vertices [first, first + count) of `primitive` (checked by the caller), straight into `out`:
+// the same floats as dense_skinning. Reads d and joints only (sf_instance_skin_range).
+bool dense_skinning_range(const Deformable& d, const JointTransforms& joints, Blend blend, uint32_t primitive,
+                          uint32_t first, uint32_t count, const StridedOutput& out);
 // LBS's kernels one by one, for the tests that hold each to the portable loop's bits. An
 // unavailable kernel (linear_kernel_available false) runs the portable loop.
 enum class LinearKernel : uint8_t { portable, sse2, avx2 };
 bool linear_kernel_available(LinearKernel kernel);
-void dense_skinning_linear(const Deformable& d, const JointTransforms& joints, LinearKernel kernel, bool with_normals,
+bool dense_skinning_linear(const Deformable& d, const JointTransforms& joints, LinearKernel kernel, bool with_normals,
                            const DenseOutput& out);
 
 }  // namespace skelform::runtime

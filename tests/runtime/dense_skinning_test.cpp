@@ -9,6 +9,7 @@
 #include <doctest/doctest.h>
 #include <glm/gtc/matrix_transform.hpp>
 
+#include <algorithm>
 #include <cstring>
 #include <random>
 #include <string>
@@ -93,4 +94,148 @@ TEST_CASE("dense skinning: every LBS kernel gives the portable loop's bits") {
   check_kernels(skelform::test::capsule_model());
   for (const std::string& name : skelform::test::sample_names())
     if (const skelform::test::RuntimeModel* model = skelform::test::sample_model(name)) check_kernels(*model);
+}
+
+namespace {
+
+// Interleaved vertex buffer of one primitive as an engine lays it out: position, a gap,
+// normal, a gap, tangent, a gap (16 floats per vertex), filled with a marker.
+constexpr size_t kStrideFloats = 16;
+constexpr float kMarker = -12345.0f;
+
+sf_vertex_output interleaved(std::vector<float>& buffer, size_t count, bool normals, bool tangents) {
+  buffer.assign(count * kStrideFloats, kMarker);
+  sf_vertex_output o{};
+  o.positions = buffer.data();
+  o.position_stride = kStrideFloats * sizeof(float);
+  o.normals = normals ? buffer.data() + 4 : nullptr;
+  o.normal_stride = kStrideFloats * sizeof(float);
+  o.tangents = tangents ? buffer.data() + 8 : nullptr;
+  o.tangent_stride = kStrideFloats * sizeof(float);
+  o.vertex_capacity = count;
+  return o;
+}
+
+// sf_instance_skin_range over a whole primitive in uneven ranges against sf_instance_evaluate
+// + sf_instance_write of the same method: the same bits, gaps untouched.
+void check_ranges(const skelform::test::RuntimeModel& model) {
+  INFO(model.name);
+  skelform::test::InstancePtr ranged(model.asset), evaluated(model.asset);
+  sf_deformable_info info{};
+  REQUIRE(sf_asset_deformable_info(model.asset, 0, &info) == SF_OK);
+  std::mt19937 random(7);
+  for (int kind = 0; kind < 2; ++kind) {
+    const std::vector<glm::mat4> pose = random_pose(info.joint_count, kind, random);
+    REQUIRE(sf_instance_set_joint_matrices(ranged, &pose[0][0][0], pose.size(), 0) == SF_OK);
+    REQUIRE(sf_instance_set_joint_matrices(evaluated, &pose[0][0][0], pose.size(), 0) == SF_OK);
+    for (uint32_t method : {uint32_t(SF_METHOD_LBS), uint32_t(SF_METHOD_DQS)}) {
+      CAPTURE(method);
+      sf_eval_options options{};
+      options.method = method;
+      REQUIRE(sf_instance_evaluate(evaluated, &options) == SF_OK);
+      for (uint32_t p = 0; p < info.primitive_count; ++p) {
+        sf_primitive_info pinfo{};
+        REQUIRE(sf_asset_primitive_info(model.asset, 0, p, &pinfo) == SF_OK);
+        const size_t n = pinfo.vertex_count;
+        std::vector<float> expected, got;
+        const sf_vertex_output whole = interleaved(expected, n, true, pinfo.has_tangents != 0);
+        REQUIRE(sf_instance_write(evaluated, p, &whole) == SF_OK);
+        interleaved(got, n, true, pinfo.has_tangents != 0);
+        // Ranges of 1, 7, 64, ... vertices, the last one what is left.
+        for (uint32_t first = 0, size = 1; first < n; first += size, size = size * 8 - 1) {
+          const uint32_t count = std::min<uint32_t>(size, uint32_t(n) - first);
+          sf_vertex_output part = whole;
+          part.vertex_capacity = count;
+          part.positions = got.data() + first * kStrideFloats;
+          part.normals = part.positions + 4;
+          part.tangents = pinfo.has_tangents ? part.positions + 8 : nullptr;
+          REQUIRE(sf_instance_skin_range(ranged, method, p, first, count, &part) == SF_OK);
+        }
+        CHECK(std::memcmp(got.data(), expected.data(), got.size() * sizeof(float)) == 0);
+        // Positions only: the normal and tangent slots keep the marker.
+        std::vector<float> positions_only;
+        const sf_vertex_output bare = interleaved(positions_only, n, false, false);
+        REQUIRE(sf_instance_skin_range(ranged, method, p, 0, uint32_t(n), &bare) == SF_OK);
+        bool same_positions = true, slots_untouched = true;
+        for (size_t v = 0; v < n; ++v) {
+          same_positions &= std::memcmp(&positions_only[v * kStrideFloats], &expected[v * kStrideFloats], 12) == 0;
+          for (size_t k = 3; k < kStrideFloats; ++k)
+            slots_untouched &= positions_only[v * kStrideFloats + k] == kMarker;
+        }
+        CHECK(same_positions);
+        CHECK(slots_untouched);
+      }
+    }
+  }
+}
+
+}  // namespace
+
+TEST_CASE("dense skinning: sf_instance_skin_range gives evaluate + write's bits, range by range, in place") {
+  check_ranges(skelform::test::capsule_model());
+  for (const std::string& name : skelform::test::sample_names())
+    if (const skelform::test::RuntimeModel* model = skelform::test::sample_model(name)) check_ranges(*model);
+}
+
+TEST_CASE("dense skinning: sf_instance_skin_range refuses bad calls with their code and changes nothing") {
+  const skelform::test::RuntimeModel& model = skelform::test::capsule_model();
+  skelform::test::InstancePtr instance(model.asset);
+  sf_deformable_info info{};
+  REQUIRE(sf_asset_deformable_info(model.asset, 0, &info) == SF_OK);
+  sf_primitive_info pinfo{}, plain{};
+  REQUIRE(sf_asset_primitive_info(model.asset, 0, 0, &pinfo) == SF_OK);
+  REQUIRE(pinfo.has_tangents == 1);
+  REQUIRE(info.primitive_count == 2);
+  REQUIRE(sf_asset_primitive_info(model.asset, 0, 1, &plain) == SF_OK);
+  REQUIRE(plain.has_tangents == 0);
+  const uint32_t n = pinfo.vertex_count;
+  std::vector<float> buffer;
+  const sf_vertex_output o = interleaved(buffer, n, true, true);
+  const std::vector<float> untouched = buffer;
+  CHECK(sf_instance_skin_range(nullptr, SF_METHOD_LBS, 0, 0, n, &o) == SF_ERROR_INVALID_ARGUMENT);
+  CHECK(sf_instance_skin_range(instance, SF_METHOD_LBS, 0, 0, n, nullptr) == SF_ERROR_INVALID_ARGUMENT);
+  CHECK(sf_instance_skin_range(instance, 7, 0, 0, n, &o) == SF_ERROR_INVALID_ARGUMENT);
+  CHECK(sf_instance_skin_range(instance, SF_METHOD_SKELFORM, 0, 0, n, &o) == SF_ERROR_UNSUPPORTED);
+  CHECK(sf_instance_skin_range(instance, SF_METHOD_LBS, 2, 0, 1, &o) == SF_ERROR_INVALID_ARGUMENT);
+  CHECK(sf_instance_skin_range(instance, SF_METHOD_LBS, 0, 1, n, &o) == SF_ERROR_INVALID_ARGUMENT);
+  CHECK(sf_instance_skin_range(instance, SF_METHOD_LBS, 0, n + 1, 0, &o) == SF_ERROR_INVALID_ARGUMENT);
+  CHECK(sf_instance_skin_range(instance, SF_METHOD_LBS, 0, 1, 0xffffffffu, &o) == SF_ERROR_INVALID_ARGUMENT);
+  sf_vertex_output small = o;
+  small.vertex_capacity = n - 1;
+  CHECK(sf_instance_skin_range(instance, SF_METHOD_LBS, 0, 0, n, &small) == SF_ERROR_INVALID_ARGUMENT);
+  sf_vertex_output narrow = o;
+  narrow.normal_stride = 8;
+  CHECK(sf_instance_skin_range(instance, SF_METHOD_LBS, 0, 0, n, &narrow) == SF_ERROR_INVALID_ARGUMENT);
+  std::vector<float> other;
+  const sf_vertex_output tangents = interleaved(other, plain.vertex_count, true, true);
+  CHECK(sf_instance_skin_range(instance, SF_METHOD_LBS, 1, 0, plain.vertex_count, &tangents) == SF_ERROR_UNSUPPORTED);
+  CHECK(buffer == untouched);
+  // A pose whose positions overflow: refused (the range's buffers then hold anything).
+  // (A uniform scale and a translation near FLT_MAX: p·s + t overflows wherever p > 0.)
+  glm::mat4 scaled(3.4e38f);
+  scaled[3] = glm::vec4(3.4e38f, 3.4e38f, 3.4e38f, 1.0f);
+  std::vector<glm::mat4> huge(info.joint_count, scaled);
+  REQUIRE(sf_instance_set_joint_matrices(instance, &huge[0][0][0], huge.size(), 0) == SF_OK);
+  CHECK(sf_instance_skin_range(instance, SF_METHOD_LBS, 0, 0, n, &o) == SF_ERROR_INVALID_ARGUMENT);
+  sf_eval_options lbs{};
+  lbs.method = SF_METHOD_LBS;
+  CHECK(sf_instance_evaluate(instance, &lbs) == SF_ERROR_INVALID_ARGUMENT);
+  // DQS keeps this pose finite (the degenerate rotation leaves no stretch): both calls agree.
+  sf_eval_options dqs{};
+  dqs.method = SF_METHOD_DQS;
+  const sf_result evaluated = sf_instance_evaluate(instance, &dqs);
+  sf_result ranged = SF_OK;
+  for (uint32_t p = 0; p < info.primitive_count; ++p) {
+    sf_primitive_info each{};
+    REQUIRE(sf_asset_primitive_info(model.asset, 0, p, &each) == SF_OK);
+    std::vector<float> scratch;
+    const sf_vertex_output to = interleaved(scratch, each.vertex_count, true, false);
+    if (sf_instance_skin_range(instance, SF_METHOD_DQS, p, 0, each.vertex_count, &to) != SF_OK)
+      ranged = SF_ERROR_INVALID_ARGUMENT;
+  }
+  CHECK(ranged == evaluated);
+  // An empty range is a valid no-op.
+  std::vector<float> empty;
+  const sf_vertex_output none = interleaved(empty, 0, true, true);
+  CHECK(sf_instance_skin_range(instance, SF_METHOD_LBS, 0, n, 0, &none) == SF_OK);
 }

@@ -1,9 +1,12 @@
 // The threading contract (skelform.h "Ownership and threads"): one immutable asset shared by
 // many instances on many threads at once. 8 threads × 16 instances of one asset evaluate 128
 // different poses concurrently (8 × 4 under ThreadSanitizer); every result must be bit-identical to the same pose evaluated
-// on one thread. A TSan build runs this test too (README: -DSKELFORM_SANITIZE=thread).
+// on one thread; and one instance skinned by sf_instance_skin_range from 8 threads at once gives
+// sf_instance_evaluate + sf_instance_write's LBS. A TSan build runs this test too (README:
+// -DSKELFORM_SANITIZE=thread).
 #include "runtime/runtime_models.h"
 
+#include <algorithm>
 #include <cstring>
 #include <thread>
 
@@ -120,4 +123,61 @@ TEST_CASE("threads: 8 threads x several instances of CesiumMan give the single-t
   if (!model) return;
   // Bend a joint near the middle of the skin's joint list (some limb), any works for the contract.
   check_threads(*model, model->inverse_bind.size() / 2);
+}
+
+TEST_CASE("threads: sf_instance_skin_range on one instance from 8 threads at once gives evaluate + write's bits") {
+  // One character split as a job system splits it: each thread skins every eighth block of 16
+  // vertices of every primitive into one shared buffer (disjoint ranges), and the whole
+  // primitive into a buffer of its own (the same ranges read at once by every thread).
+  const skelform::test::RuntimeModel& model = skelform::test::capsule_model();
+  sf_deformable_info info{};
+  REQUIRE(sf_asset_deformable_info(model.asset, 0, &info) == SF_OK);
+  skelform::test::InstancePtr instance(model.asset);
+  const std::vector<glm::mat4> pose = pose_of(model, 1, 3);
+  REQUIRE(sf_instance_set_joint_matrices(instance, &pose[0][0][0], pose.size(), 0) == SF_OK);
+  sf_eval_options lbs{};
+  lbs.method = SF_METHOD_LBS;
+  REQUIRE(sf_instance_evaluate(instance, &lbs) == SF_OK);
+  std::vector<float> reference;
+  REQUIRE(write_outputs(model.asset, instance, reference));
+
+  std::vector<sf_primitive_info> primitives(info.primitive_count);
+  for (uint32_t p = 0; p < info.primitive_count; ++p)
+    REQUIRE(sf_asset_primitive_info(model.asset, 0, p, &primitives[p]) == SF_OK);
+  // write_outputs' layout: per primitive, positions, normals, then tangents if any.
+  auto layout = [&](std::vector<float>& out, uint32_t p, uint32_t first, uint32_t count) {
+    size_t at = 0;
+    for (uint32_t q = 0; q < p; ++q) at += primitives[q].vertex_count * (primitives[q].has_tangents ? 10 : 6);
+    const size_t n = primitives[p].vertex_count;
+    sf_vertex_output o{};
+    o.positions = out.data() + at + 3 * first;
+    o.normals = out.data() + at + 3 * n + 3 * first;
+    o.tangents = primitives[p].has_tangents ? out.data() + at + 6 * n + 4 * first : nullptr;
+    o.vertex_capacity = count;
+    return o;
+  };
+  constexpr uint32_t kBlock = 16;
+  std::vector<float> shared(reference.size(), 0.0f);
+  std::vector<std::vector<float>> own(kThreads, std::vector<float>(reference.size(), 0.0f));
+  std::vector<int> failures(kThreads, 0);
+  std::vector<std::thread> threads;
+  for (int t = 0; t < kThreads; ++t)
+    threads.emplace_back([&, t] {
+      for (uint32_t p = 0; p < info.primitive_count; ++p) {
+        const uint32_t n = primitives[p].vertex_count;
+        for (uint32_t first = uint32_t(t) * kBlock; first < n; first += kThreads * kBlock) {
+          const uint32_t count = std::min(kBlock, n - first);
+          const sf_vertex_output o = layout(shared, p, first, count);
+          failures[size_t(t)] += sf_instance_skin_range(instance, SF_METHOD_LBS, p, first, count, &o) != SF_OK;
+        }
+        const sf_vertex_output whole = layout(own[size_t(t)], p, 0, n);
+        failures[size_t(t)] += sf_instance_skin_range(instance, SF_METHOD_LBS, p, 0, n, &whole) != SF_OK;
+      }
+    });
+  for (std::thread& thread : threads) thread.join();
+  for (int t = 0; t < kThreads; ++t) {
+    CHECK(failures[size_t(t)] == 0);
+    CHECK(std::memcmp(own[size_t(t)].data(), reference.data(), reference.size() * sizeof(float)) == 0);
+  }
+  CHECK(std::memcmp(shared.data(), reference.data(), reference.size() * sizeof(float)) == 0);
 }

@@ -29,7 +29,9 @@
  *   evaluated on different threads concurrently. "One thread at a time" includes the calls
  *   that take a const sf_instance* (sf_instance_write, sf_instance_write_coarse,
  *   sf_instance_last_error, ...): a failing one records its message in the instance, so two
- *   threads may not write out of the same instance at once.
+ *   threads may not write out of the same instance at once. The exception is
+ *   sf_instance_skin_range, which records nothing: a job system may skin ranges of one
+ *   character on several threads at once.
  * - There is no global mutable state. No call throws, aborts or exits on bad input; every
  *   call returns an sf_result and keeps a readable message (sf_instance_last_error, or the
  *   caller's buffer in sf_load_options for loading).
@@ -403,6 +405,25 @@ typedef struct sf_vertex_output {
  * only for primitives with authored tangents (else SF_ERROR_UNSUPPORTED if requested). Never
  * allocates; touches no byte outside the described elements. */
 SF_API sf_result sf_instance_write(const sf_instance* instance, uint32_t primitive, const sf_vertex_output* output);
+
+/* Skins vertices [first_vertex, first_vertex + vertex_count) of one primitive by
+ * SF_METHOD_LBS or SF_METHOD_DQS from the joint matrices last set (the rest pose before any),
+ * straight into the caller's buffers: element 0 of each stream is vertex first_vertex, and
+ * output->vertex_capacity must be >= vertex_count. The same floats as sf_instance_evaluate
+ * with that method followed by sf_instance_write, without the instance's own copy: an
+ * engine's skinning job. A NULL normals stream computes no normals; tangents are written only
+ * when requested (SF_ERROR_UNSUPPORTED for a primitive without authored tangents).
+ * It changes nothing in the instance (not its last evaluation, nor its output, nor its
+ * message): calls on one instance, on disjoint ranges or not, may run on several threads at
+ * once (a job system splitting a character), provided no other call on that instance runs
+ * meanwhile. Hence it returns a code only, sf_instance_last_error does not describe it:
+ * SF_ERROR_INVALID_ARGUMENT for a NULL pointer, an unknown method, a primitive or range out of
+ * range, a capacity below vertex_count, a stride below its element, or a pose whose positions
+ * would not be finite (the range's buffers then hold unspecified values); SF_ERROR_UNSUPPORTED
+ * for SF_METHOD_SKELFORM (its fairing and guards span the whole mesh: split a crowd by
+ * instance), an unskinned deformable or the handle driver. Never allocates. */
+SF_API sf_result sf_instance_skin_range(const sf_instance* instance, uint32_t method, uint32_t primitive,
+                                        uint32_t first_vertex, uint32_t vertex_count, const sf_vertex_output* output);
 
 /* Inspection (viewers, debugging): the coarse meshes of the last SF_METHOD_SKELFORM
  * evaluation, control_vertex_count positions `stride_bytes` apart (0 = 12). */
