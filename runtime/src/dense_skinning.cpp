@@ -13,6 +13,7 @@
 // (sf_instance_skin_range), the same floats either way.
 #include "instance.h"
 
+#include <cmath>
 #include <cstring>
 
 #if defined(__SSE2__)
@@ -140,6 +141,26 @@ bool skin_linear_sse2(const Deformable& d, const JointAffine* joints, const Rang
 // each and the transpose; each element is still w·m added in influence order, and the
 // position and normal sums are the SSE2 kernel's. No FMA: one rounding instead of two would
 // change the bits (and the build turns contraction off for the same reason).
+// Vertex v's blend: columns 0|1 in a, 2|3 in b (lane 3 of each: the bottom row, unused).
+template <uint32_t kInfluences>
+__attribute__((target("avx2"))) inline void blend_columns_avx2(const uint16_t* joint_index, const float* weight,
+                                                               uint32_t influences, const glm::mat4* matrices,
+                                                               size_t first, __m256& a, __m256& b) {
+  a = _mm256_setzero_ps();
+  b = a;
+  for (uint32_t k = 0; k < influences; ++k) {
+    const __m256 w = _mm256_broadcast_ss(weight + first + k);
+    const float* m = &matrices[joint_index[first + k]][0][0];
+    a = _mm256_add_ps(a, _mm256_mul_ps(w, _mm256_loadu_ps(m)));
+    b = _mm256_add_ps(b, _mm256_mul_ps(w, _mm256_loadu_ps(m + 8)));
+  }
+}
+
+// [x of u ×4 | x of w ×4]: one coordinate of two vertices, one per half.
+__attribute__((target("avx2"))) inline __m256 pair_broadcast(const float* u, const float* w) {
+  return _mm256_insertf128_ps(_mm256_castps128_ps256(_mm_broadcast_ss(u)), _mm_broadcast_ss(w), 1);
+}
+
 template <uint32_t kInfluences, class Sink>
 __attribute__((target("avx2"))) bool skin_linear_avx2(const Deformable& d, const glm::mat4* matrices,
                                                       const Range& range, const Sink& sink) {
@@ -149,15 +170,47 @@ __attribute__((target("avx2"))) bool skin_linear_avx2(const Deformable& d, const
   const glm::vec3* rest_positions = d.rest_positions.data();
   const glm::vec3* rest_normals = d.rest_normals.data();
   __m128 sticky = _mm_setzero_ps();
-  for (uint32_t v = range.begin; v < range.end; ++v) {
-    const size_t first = size_t(v) * influences;
-    __m256 a = _mm256_setzero_ps(), b = a;  // columns 0|1, 2|3 (lane 3 of each: the bottom row, unused)
-    for (uint32_t k = 0; k < influences; ++k) {
-      const __m256 w = _mm256_broadcast_ss(weight + first + k);
-      const float* m = &matrices[joint_index[first + k]][0][0];
-      a = _mm256_add_ps(a, _mm256_mul_ps(w, _mm256_loadu_ps(m)));
-      b = _mm256_add_ps(b, _mm256_mul_ps(w, _mm256_loadu_ps(m + 8)));
-    }
+  // Two vertices at a time, one per 128-bit half: every lane runs the one-vertex sums below.
+  uint32_t v = range.begin;
+  for (; v + 1 < range.end && !range.tangents; v += 2) {
+    __m256 a0, b0, a1, b1;
+    blend_columns_avx2<kInfluences>(joint_index, weight, influences, matrices, size_t(v) * influences, a0, b0);
+    blend_columns_avx2<kInfluences>(joint_index, weight, influences, matrices, size_t(v + 1) * influences, a1, b1);
+    const __m256 c0 = _mm256_permute2f128_ps(a0, a1, 0x20), c1 = _mm256_permute2f128_ps(a0, a1, 0x31);
+    const __m256 c2 = _mm256_permute2f128_ps(b0, b1, 0x20), c3 = _mm256_permute2f128_ps(b0, b1, 0x31);
+    const float *p0 = &rest_positions[v].x, *p1 = &rest_positions[v + 1].x;
+    const __m256 xy =
+        _mm256_add_ps(_mm256_mul_ps(c0, pair_broadcast(p0, p1)), _mm256_mul_ps(c1, pair_broadcast(p0 + 1, p1 + 1)));
+    const __m256 position = _mm256_add_ps(_mm256_add_ps(xy, _mm256_mul_ps(c2, pair_broadcast(p0 + 2, p1 + 2))), c3);
+    const __m128 position0 = _mm256_castps256_ps128(position), position1 = _mm256_extractf128_ps(position, 1);
+    sticky = accumulate_non_finite(accumulate_non_finite(sticky, position0), position1);
+    store3(sink.position(v), position0);
+    store3(sink.position(v + 1), position1);
+    if (!range.normals) continue;
+    const float *n0 = &rest_normals[v].x, *n1 = &rest_normals[v + 1].x;
+    const __m256 t = _mm256_add_ps(
+        _mm256_add_ps(_mm256_mul_ps(c0, pair_broadcast(n0, n1)), _mm256_mul_ps(c1, pair_broadcast(n0 + 1, n1 + 1))),
+        _mm256_mul_ps(c2, pair_broadcast(n0 + 2, n1 + 2)));
+    const __m256 sq = _mm256_mul_ps(t, t);
+    // Lane 0 of each half: (x² + y²) + z², then in every lane of its half.
+    const __m256 sum = _mm256_add_ps(_mm256_add_ps(sq, _mm256_permute_ps(sq, 1)), _mm256_permute_ps(sq, 2));
+    const __m256 length = _mm256_sqrt_ps(_mm256_permute_ps(sum, 0));
+    const __m256 usable = _mm256_and_ps(_mm256_cmp_ps(length, _mm256_set1_ps(1e-30f), _CMP_GT_OQ),
+                                        _mm256_cmp_ps(length, _mm256_set1_ps(INFINITY), _CMP_LT_OQ));
+    const int lanes = _mm256_movemask_ps(usable);
+    const __m256 normal = _mm256_div_ps(t, length);
+    if (lanes & 0x01)
+      store3(sink.normal(v), _mm256_castps256_ps128(normal));
+    else
+      put3(sink.normal(v), rest_normals[v]);
+    if (lanes & 0x10)
+      store3(sink.normal(v + 1), _mm256_extractf128_ps(normal, 1));
+    else
+      put3(sink.normal(v + 1), rest_normals[v + 1]);
+  }
+  for (; v < range.end; ++v) {
+    __m256 a, b;
+    blend_columns_avx2<kInfluences>(joint_index, weight, influences, matrices, size_t(v) * influences, a, b);
     const __m128 c0 = _mm256_castps256_ps128(a), c1 = _mm256_extractf128_ps(a, 1);
     const __m128 c2 = _mm256_castps256_ps128(b), c3 = _mm256_extractf128_ps(b, 1);
     const float* p = &rest_positions[v].x;
