@@ -169,6 +169,7 @@ void drive_and_reconstruct(sf_instance& instance, const sf_eval_options& options
 void evaluate_skelform(sf_instance& instance, const sf_eval_options& options, bool with_normals,
                        const DenseOutput& result, float& scale) {
   const Deformable& d = *instance.deformable;
+  if (!instance.joints.skin_prepared) prepare_skin_joints(d, instance.joints);
   drive_and_reconstruct(instance, options);
   // 3. Fairing (flows (4), (5)), warm-started from the previous evaluation.
   FairStageOptions fairing;

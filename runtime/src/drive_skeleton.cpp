@@ -9,6 +9,15 @@
 namespace skelform::runtime {
 
 void prepare_joints(const Deformable& d, const glm::mat4* matrices, JointTransforms& joints) {
+  for (size_t j = 0; j < d.joint_count; ++j) {
+    joints.matrices[j] = matrices[j];
+    prepare_joint(matrices[j], joints.affine[j], joints.dual_quaternion[j]);
+  }
+  joints.skin_prepared = false;
+}
+
+void prepare_skin_joints(const Deformable& d, JointTransforms& joints) {
+  const glm::mat4* matrices = joints.matrices.data();
   const size_t count = d.joint_count;
   // σ: the joints' scales weighted by their use in the control skin (in double: a sum over
   // joints), falling back to the plain mean when no control vertex uses any joint.
@@ -35,15 +44,16 @@ void prepare_joints(const Deformable& d, const glm::mat4* matrices, JointTransfo
   joints.uniform = true;
   const float inverse = 1.0f / scale;
   for (size_t j = 0; j < count; ++j) {
-    prepare_joint(matrices[j], joints.affine[j], joints.dual_quaternion[j]);
     const glm::mat4 normalised = scale == 1.0f ? matrices[j] : matrices[j] * inverse;
     glm::mat4 m = normalised;
     m[3][3] = 1.0f;
-    prepare_joint(m, joints.skin_affine[j], joints.skin_dual_quaternion[j]);
+    JointDualQuaternion& dq = joints.skin_dual_quaternion[j];
+    prepare_joint(m, joints.skin_affine[j], dq);
     const float ratio = all_equal ? 1.0f : joints.scale_ratio[j] * inverse;
     joints.scale_ratio[j] = std::isfinite(ratio) ? ratio : 1.0f;
     joints.uniform = joints.uniform && joints.scale_ratio[j] == 1.0f;
   }
+  joints.skin_prepared = true;
 }
 
 void scale_medial_radii(const Deformable& d, const JointTransforms& joints, const float* radius_in, float* radius_out) {

@@ -62,11 +62,18 @@ struct JointTransforms {
   Array<glm::mat4> matrices;  // the caller's matrices, as last set
   float scale = 1.0f;         // σ
   bool uniform = true;        // every scale_ratio is exactly 1
+  // The normalised forms (skin_*, scale_ratio, scale, uniform) are those of `matrices`: false
+  // from sf_instance_set_joint_matrices until an SF_METHOD_SKELFORM evaluation prepares them,
+  // so LBS and DQS (evaluated or by range) never pay for them.
+  bool skin_prepared = true;
 };
 
 // Prepares `joints` from column-major matrices (count = d.joint_count; finite, checked by the
-// caller): both the caller's and the normalised representations, σ and the ratios.
+// caller): the caller's representations (affine, dual_quaternion) and `matrices` itself; the
+// normalised ones wait for prepare_skin_joints.
 void prepare_joints(const Deformable& d, const glm::mat4* matrices, JointTransforms& joints);
+// The normalised representations, σ and the ratios from joints.matrices (skin_prepared).
+void prepare_skin_joints(const Deformable& d, JointTransforms& joints);
 
 // The current handle set (sf_instance_set_handle_set): the caller's original vertex ids and
 // targets. The system gets one displacement per caller handle; handles collapsing onto one
