@@ -10,6 +10,9 @@
  *     phase and speed; they share the immutable asset;
  *  4. every frame, per character: compute joint matrices, evaluate (incrementally after the
  *     first frame), write positions, normals and tangents into an interleaved vertex buffer;
+ *     the last character stands far away and is skinned by plain LBS instead, in blocks of
+ *     vertices straight into its buffer (sf_instance_skin_range: what an engine's job system
+ *     would run on its worker threads, one block per job);
  *  5. handle every result code, and walk each error path once on purpose;
  *  6. free everything and check that the allocator's counts are back to zero.
  * Exit status: 0 when every call and check succeeded, 1 on any failure, 2 on bad usage.
@@ -33,7 +36,7 @@
 #include <string.h>
 #include <time.h>
 
-enum { CHARACTER_COUNT = 3 };
+enum { CHARACTER_COUNT = 3, LOD_CHARACTER = CHARACTER_COUNT - 1, SKIN_BLOCK = 256 };
 static const float BEND_AMPLITUDE = 0.35f; /* radians, per joint */
 static const float FRAME_SECONDS = 1.0f / 30.0f;
 static const float TWO_PI = 6.2831853f;
@@ -213,7 +216,7 @@ typedef struct character {
   float* joint_world;      /* joint_count 4x4 */
   float* skinning;         /* joint_count 4x4: what sf_instance_set_joint_matrices takes */
   engine_vertex* vertices; /* vertex buffer: the deformable's primitives one after the other */
-  double evaluate_seconds; /* CPU time spent in sf_instance_evaluate */
+  double evaluate_seconds; /* CPU time spent in sf_instance_evaluate (LOD: sf_instance_skin_range) */
 } character;
 
 static const float UV_SENTINEL = 0.625f;
@@ -231,6 +234,34 @@ static int write_vertices(const character* ch, const sf_primitive_info* primitiv
     out.vertex_capacity = primitives[p].vertex_count;
     if (!check(sf_instance_write(ch->instance, p, &out), "sf_instance_write", ch->instance, NULL)) return 0;
   }
+  return 1;
+}
+
+/* The far character: LBS of every primitive in blocks of SKIN_BLOCK vertices, each block
+ * straight into the interleaved buffer. The calls change nothing in the instance, so a job
+ * system may run the blocks on several threads at once; this example runs them in turn. */
+static int skin_by_blocks(const character* ch, const sf_primitive_info* primitives, uint32_t primitive_count) {
+  uint32_t p, first;
+  for (p = 0; p < primitive_count; ++p)
+    for (first = 0; first < primitives[p].vertex_count; first += SKIN_BLOCK) {
+      const uint32_t left = primitives[p].vertex_count - first;
+      const uint32_t count = left < SKIN_BLOCK ? left : SKIN_BLOCK;
+      engine_vertex* v = ch->vertices + primitives[p].first_vertex + first;
+      sf_vertex_output out;
+      sf_result result;
+      memset(&out, 0, sizeof out);
+      out.positions = v->position, out.position_stride = sizeof *v;
+      out.normals = v->normal, out.normal_stride = sizeof *v;
+      if (primitives[p].has_tangents) out.tangents = v->tangent, out.tangent_stride = sizeof *v;
+      out.vertex_capacity = count;
+      /* A code only: this call keeps no message (it may run on many threads at once). */
+      result = sf_instance_skin_range(ch->instance, SF_METHOD_LBS, p, first, count, &out);
+      if (result != SF_OK) {
+        fprintf(stderr, "error: sf_instance_skin_range(primitive %u, %u..%u): %s\n  what to do: %s\n", (unsigned)p,
+                (unsigned)first, (unsigned)(first + count), sf_result_string(result), advice(result));
+        return 0;
+      }
+    }
   return 1;
 }
 
@@ -484,17 +515,24 @@ int main(int argc, char** argv) {
                  "sf_instance_set_joint_matrices", ch->instance, NULL))
         goto done;
       start = clock();
-      if (!check(sf_instance_evaluate(ch->instance, &options), "sf_instance_evaluate", ch->instance, NULL)) goto done;
-      ch->evaluate_seconds += (double)(clock() - start) / CLOCKS_PER_SEC;
-      if (!write_vertices(ch, primitives, info.primitive_count)) goto done;
+      if (c == LOD_CHARACTER) {
+        if (!skin_by_blocks(ch, primitives, info.primitive_count)) goto done;
+        ch->evaluate_seconds += (double)(clock() - start) / CLOCKS_PER_SEC;
+      } else {
+        if (!check(sf_instance_evaluate(ch->instance, &options), "sf_instance_evaluate", ch->instance, NULL)) goto done;
+        ch->evaluate_seconds += (double)(clock() - start) / CLOCKS_PER_SEC;
+        if (!write_vertices(ch, primitives, info.primitive_count)) goto done;
+      }
       bad_vertices += summarize(ch->vertices, info.vertex_count, box);
       printf("  #%d [%.3g %.3g %.3g .. %.3g %.3g %.3g]", c, box[0], box[1], box[2], box[3], box[4], box[5]);
     }
     printf("\n");
   }
   for (c = 0; c < CHARACTER_COUNT; ++c)
-    printf("character %d: phase %.2f, speed %.2f, %.3f ms CPU per evaluation (%u vertices)\n", c, characters[c].phase,
-           characters[c].speed, 1e3 * characters[c].evaluate_seconds / (double)frames, (unsigned)info.vertex_count);
+    printf("character %d: phase %.2f, speed %.2f, %.3f ms CPU per %s (%u vertices)\n", c, characters[c].phase,
+           characters[c].speed, 1e3 * characters[c].evaluate_seconds / (double)frames,
+           c == LOD_CHARACTER ? "frame of LBS by blocks (far away)" : "skelform evaluation",
+           (unsigned)info.vertex_count);
   printf("output check: %lu frame-vertices non-finite, non-unit normal or uv touched: %s\n",
          (unsigned long)bad_vertices, bad_vertices == 0 ? "all positions finite" : "FAILED");
   failures += bad_vertices != 0;
