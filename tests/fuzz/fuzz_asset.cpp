@@ -16,6 +16,7 @@
 namespace {
 
 using skelform::fuzz::check_coarse;
+using skelform::fuzz::check_skin_ranges;
 using skelform::fuzz::require;
 using skelform::fuzz::write_primitives;
 
@@ -29,6 +30,8 @@ void evaluate_all_methods(sf_instance* instance, const sf_asset* asset, uint32_t
     if (sf_instance_evaluate(instance, &options) != SF_OK) continue;
     write_primitives(instance, asset, deformable, info);
     if (options.method == SF_METHOD_SKELFORM) check_coarse(instance, info);
+    if (options.method == SF_METHOD_LBS || options.method == SF_METHOD_DQS)
+      check_skin_ranges(instance, asset, deformable, info, options.method);
   }
 }
 

@@ -8,6 +8,7 @@
 #include <cmath>
 #include <cstddef>
 #include <cstdint>
+#include <cstring>
 #include <limits>
 #include <vector>
 
@@ -43,6 +44,39 @@ inline void write_primitives(sf_instance* instance, const sf_asset* asset, uint3
       require(all_finite(vertex, primitive.has_tangents ? kFloatsPerVertex : 6),
               "sf_instance_write returned SF_OK with a non-finite position, normal or tangent");
     }
+  }
+}
+
+// After an SF_OK evaluation by `method` (LBS or DQS): sf_instance_skin_range over each
+// primitive in two ranges gives sf_instance_write's floats bit for bit, in exact-size buffers.
+inline void check_skin_ranges(sf_instance* instance, const sf_asset* asset, uint32_t deformable,
+                              const sf_deformable_info& info, uint32_t method) {
+  for (uint32_t p = 0; p < info.primitive_count; ++p) {
+    sf_primitive_info primitive{};
+    require(sf_asset_primitive_info(asset, deformable, p, &primitive) == SF_OK,
+            "sf_asset_primitive_info failed for an index below primitive_count");
+    const size_t n = primitive.vertex_count;
+    std::vector<float> written(n * kFloatsPerVertex, 0.0f), ranged(n * kFloatsPerVertex, 0.0f);
+    auto output = [&](std::vector<float>& buffer, size_t first, size_t count) {
+      sf_vertex_output o{};
+      o.positions = buffer.data() + first * kFloatsPerVertex;
+      o.position_stride = kFloatsPerVertex * sizeof(float);
+      o.normals = o.positions + 3;
+      o.normal_stride = o.position_stride;
+      o.tangents = primitive.has_tangents ? o.positions + 6 : nullptr;
+      o.tangent_stride = o.position_stride;
+      o.vertex_capacity = count;
+      return o;
+    };
+    const sf_vertex_output whole = output(written, 0, n);
+    require(sf_instance_write(instance, p, &whole) == SF_OK, "sf_instance_write failed after an SF_OK evaluation");
+    const uint32_t half = uint32_t(n / 2);
+    const sf_vertex_output low = output(ranged, 0, half), high = output(ranged, half, n - half);
+    require(sf_instance_skin_range(instance, method, p, 0, half, &low) == SF_OK &&
+                sf_instance_skin_range(instance, method, p, half, uint32_t(n) - half, &high) == SF_OK,
+            "sf_instance_skin_range refused a pose sf_instance_evaluate accepted");
+    require(std::memcmp(written.data(), ranged.data(), written.size() * sizeof(float)) == 0,
+            "sf_instance_skin_range differs from sf_instance_evaluate + sf_instance_write");
   }
 }
 
