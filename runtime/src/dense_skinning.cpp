@@ -30,8 +30,10 @@ namespace {
 
 // Where a kernel puts vertex v's position, normal and tangent: the instance's arrays, indexed
 // by dense vertex.
+// Sinks and ranges are held by value in the kernels: a store through a sink could otherwise
+// alias them, and the compiler would reload them after every store.
 struct ArraySink {
-  const DenseOutput& out;
+  DenseOutput out;
   void* position(uint32_t v) const { return &out.positions[v]; }
   void* normal(uint32_t v) const { return &out.normals[v]; }
   void* tangent(uint32_t v) const { return &out.tangents[v]; }
@@ -39,7 +41,7 @@ struct ArraySink {
 
 // The caller's strided streams (StridedOutput), element 0 being vertex `first`.
 struct StridedSink {
-  const StridedOutput& out;
+  StridedOutput out;
   uint32_t first;
   void* position(uint32_t v) const { return out.positions + size_t(v - first) * out.position_stride; }
   void* normal(uint32_t v) const { return out.normals + size_t(v - first) * out.normal_stride; }
@@ -85,7 +87,7 @@ inline bool lanes_finite(__m128 sticky) {
 // so that x' = ((c0·x + c1·y) + c2·z) + c3 per lane is transform_point's sum in its order, and
 // the normal's length is (x² + y²) + z² as glm::dot sums it. Tangents take the portable path.
 template <class Sink>
-bool skin_linear_sse2(const Deformable& d, const JointAffine* joints, const Range& range, const Sink& sink) {
+bool skin_linear_sse2(const Deformable& d, const JointAffine* joints, Range range, Sink sink) {
   const uint32_t influences = d.influences;
   const uint16_t* joint_index = d.dense_joints.data();
   const float* weight = d.dense_weights.data();
@@ -162,8 +164,8 @@ __attribute__((target("avx2"))) inline __m256 pair_broadcast(const float* u, con
 }
 
 template <uint32_t kInfluences, class Sink>
-__attribute__((target("avx2"))) bool skin_linear_avx2(const Deformable& d, const glm::mat4* matrices,
-                                                      const Range& range, const Sink& sink) {
+__attribute__((target("avx2"))) bool skin_linear_avx2(const Deformable& d, const glm::mat4* matrices, Range range,
+                                                      Sink sink) {
   const uint32_t influences = kInfluences != 0 ? kInfluences : d.influences;
   const uint16_t* joint_index = d.dense_joints.data();
   const float* weight = d.dense_weights.data();
@@ -245,7 +247,7 @@ __attribute__((target("avx2"))) bool skin_linear_avx2(const Deformable& d, const
 }
 
 template <class Sink>
-bool skin_linear_avx2_any(const Deformable& d, const glm::mat4* matrices, const Range& range, const Sink& sink) {
+bool skin_linear_avx2_any(const Deformable& d, const glm::mat4* matrices, Range range, Sink sink) {
   if (d.influences == 4) return skin_linear_avx2<4>(d, matrices, range, sink);
   if (d.influences == 8) return skin_linear_avx2<8>(d, matrices, range, sink);
   return skin_linear_avx2<0>(d, matrices, range, sink);
@@ -263,30 +265,30 @@ bool cpu_has_avx2() {
 // The portable loop, one instantiation per blend so the per-vertex kernel is a direct call
 // the compiler can inline.
 template <class Joint, void (*BlendFn)(const Joint*, const uint16_t*, const float*, uint32_t, float*), class Sink>
-bool skin_vertices(const Deformable& d, const Joint* joints, const Range& range, const Sink& sink) {
+bool skin_vertices(const Deformable& d, const Joint* joints, Range range, Sink sink) {
   const uint32_t influences = d.influences;
   const uint16_t* joint_index = d.dense_joints.data();
   const float* weight = d.dense_weights.data();
   const glm::vec3* rest_positions = d.rest_positions.data();
   const glm::vec3* rest_normals = d.rest_normals.data();
-  bool finite = true;
+  glm::vec3 sticky(0.0f);  // as the SIMD kernels' (accumulate_non_finite): NaN once a position is not finite
   for (uint32_t v = range.begin; v < range.end; ++v) {
     const size_t first = size_t(v) * influences;
     float m[12];
     BlendFn(joints, joint_index + first, weight + first, influences, m);
     const glm::vec3 position = transform_point(m, rest_positions[v]);
-    finite &= std::isfinite(position.x) && std::isfinite(position.y) && std::isfinite(position.z);
+    sticky += position * 0.0f;
     put3(sink.position(v), position);
     if (range.normals) put3(sink.normal(v), normalize_or(transform_vector(m, rest_normals[v]), rest_normals[v]));
     if (range.tangents) put4(sink.tangent(v), skinned_tangent(m, d.rest_tangents[v]));
   }
-  return finite;
+  return sticky.x == 0.0f && sticky.y == 0.0f && sticky.z == 0.0f;
 }
 
 // One range through the chosen kernel (an unavailable one runs the portable loop).
 template <class Sink>
-bool skin_range(const Deformable& d, const JointTransforms& joints, Blend blend, LinearKernel kernel,
-                const Range& range, const Sink& sink) {
+bool skin_range(const Deformable& d, const JointTransforms& joints, Blend blend, LinearKernel kernel, Range range,
+                Sink sink) {
   if (blend == Blend::dual_quaternion)
     return skin_vertices<JointDualQuaternion, blend_dual_quaternion>(d, joints.dual_quaternion.data(), range, sink);
   switch (kernel) {
