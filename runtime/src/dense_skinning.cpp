@@ -64,10 +64,11 @@ struct Range {
 };
 
 #if defined(__SSE2__)
-// Stores lanes 0-2 (nothing past them: the caller's element may end there).
+// Stores lanes 0-2 (nothing past them: the caller's element may end there), at any byte
+// address: the caller's strides need not be multiples of 4.
 inline void store3(void* out, __m128 v) {
-  _mm_storel_pi(static_cast<__m64*>(out), v);
-  _mm_store_ss(static_cast<float*>(out) + 2, _mm_movehl_ps(v, v));
+  _mm_storeu_si64(out, _mm_castps_si128(v));
+  _mm_storeu_si32(static_cast<unsigned char*>(out) + 8, _mm_castps_si128(_mm_movehl_ps(v, v)));
 }
 
 // Lanes 0-2 of the OR of every position: any lane not finite leaves a NaN in `sticky`
@@ -163,6 +164,33 @@ __attribute__((target("avx2"))) inline __m256 pair_broadcast(const float* u, con
   return _mm256_insertf128_ps(_mm256_castps128_ps256(_mm_broadcast_ss(u)), _mm_broadcast_ss(w), 1);
 }
 
+// The rest directions u0, u1 (a normal, a tangent's xyz) of the halves' two vertices through
+// their blends' linear parts (c0, c1, c2), renormalised, into out0 / out1 (xyz): per lane the
+// one-vertex sums, (c0·x + c1·y) + c2·z, the length of (x² + y²) + z², and the rest direction
+// itself where that length is not above 1e-30 or not finite (normalize_or).
+__attribute__((target("avx2"))) inline void pair_unit(__m256 c0, __m256 c1, __m256 c2, const float* u0, const float* u1,
+                                                      void* out0, void* out1) {
+  const __m256 t = _mm256_add_ps(
+      _mm256_add_ps(_mm256_mul_ps(c0, pair_broadcast(u0, u1)), _mm256_mul_ps(c1, pair_broadcast(u0 + 1, u1 + 1))),
+      _mm256_mul_ps(c2, pair_broadcast(u0 + 2, u1 + 2)));
+  const __m256 sq = _mm256_mul_ps(t, t);
+  // Lane 0 of each half: (x² + y²) + z², then in every lane of its half.
+  const __m256 sum = _mm256_add_ps(_mm256_add_ps(sq, _mm256_permute_ps(sq, 1)), _mm256_permute_ps(sq, 2));
+  const __m256 length = _mm256_sqrt_ps(_mm256_permute_ps(sum, 0));
+  const __m256 usable = _mm256_and_ps(_mm256_cmp_ps(length, _mm256_set1_ps(1e-30f), _CMP_GT_OQ),
+                                      _mm256_cmp_ps(length, _mm256_set1_ps(INFINITY), _CMP_LT_OQ));
+  const int lanes = _mm256_movemask_ps(usable);
+  const __m256 unit = _mm256_div_ps(t, length);
+  if (lanes & 0x01)
+    store3(out0, _mm256_castps256_ps128(unit));
+  else
+    std::memcpy(out0, u0, 3 * sizeof(float));
+  if (lanes & 0x10)
+    store3(out1, _mm256_extractf128_ps(unit, 1));
+  else
+    std::memcpy(out1, u1, 3 * sizeof(float));
+}
+
 template <uint32_t kInfluences, class Sink>
 __attribute__((target("avx2"))) bool skin_linear_avx2(const Deformable& d, const glm::mat4* matrices, Range range,
                                                       Sink sink) {
@@ -174,7 +202,7 @@ __attribute__((target("avx2"))) bool skin_linear_avx2(const Deformable& d, const
   __m128 sticky = _mm_setzero_ps();
   // Two vertices at a time, one per 128-bit half: every lane runs the one-vertex sums below.
   uint32_t v = range.begin;
-  for (; v + 1 < range.end && !range.tangents; v += 2) {
+  for (; v + 1 < range.end; v += 2) {
     __m256 a0, b0, a1, b1;
     blend_columns_avx2<kInfluences>(joint_index, weight, influences, matrices, size_t(v) * influences, a0, b0);
     blend_columns_avx2<kInfluences>(joint_index, weight, influences, matrices, size_t(v + 1) * influences, a1, b1);
@@ -188,27 +216,16 @@ __attribute__((target("avx2"))) bool skin_linear_avx2(const Deformable& d, const
     sticky = accumulate_non_finite(accumulate_non_finite(sticky, position0), position1);
     store3(sink.position(v), position0);
     store3(sink.position(v + 1), position1);
-    if (!range.normals) continue;
-    const float *n0 = &rest_normals[v].x, *n1 = &rest_normals[v + 1].x;
-    const __m256 t = _mm256_add_ps(
-        _mm256_add_ps(_mm256_mul_ps(c0, pair_broadcast(n0, n1)), _mm256_mul_ps(c1, pair_broadcast(n0 + 1, n1 + 1))),
-        _mm256_mul_ps(c2, pair_broadcast(n0 + 2, n1 + 2)));
-    const __m256 sq = _mm256_mul_ps(t, t);
-    // Lane 0 of each half: (x² + y²) + z², then in every lane of its half.
-    const __m256 sum = _mm256_add_ps(_mm256_add_ps(sq, _mm256_permute_ps(sq, 1)), _mm256_permute_ps(sq, 2));
-    const __m256 length = _mm256_sqrt_ps(_mm256_permute_ps(sum, 0));
-    const __m256 usable = _mm256_and_ps(_mm256_cmp_ps(length, _mm256_set1_ps(1e-30f), _CMP_GT_OQ),
-                                        _mm256_cmp_ps(length, _mm256_set1_ps(INFINITY), _CMP_LT_OQ));
-    const int lanes = _mm256_movemask_ps(usable);
-    const __m256 normal = _mm256_div_ps(t, length);
-    if (lanes & 0x01)
-      store3(sink.normal(v), _mm256_castps256_ps128(normal));
-    else
-      put3(sink.normal(v), rest_normals[v]);
-    if (lanes & 0x10)
-      store3(sink.normal(v + 1), _mm256_extractf128_ps(normal, 1));
-    else
-      put3(sink.normal(v + 1), rest_normals[v + 1]);
+    if (range.normals)
+      pair_unit(c0, c1, c2, &rest_normals[v].x, &rest_normals[v + 1].x, sink.normal(v), sink.normal(v + 1));
+    if (range.tangents) {
+      const glm::vec4 *t0 = &d.rest_tangents[v], *t1 = &d.rest_tangents[v + 1];
+      unsigned char *out0 = static_cast<unsigned char*>(sink.tangent(v)),
+                    *out1 = static_cast<unsigned char*>(sink.tangent(v + 1));
+      pair_unit(c0, c1, c2, &t0->x, &t1->x, out0, out1);
+      std::memcpy(out0 + 3 * sizeof(float), &t0->w, sizeof(float));  // the handedness as authored
+      std::memcpy(out1 + 3 * sizeof(float), &t1->w, sizeof(float));
+    }
   }
   for (; v < range.end; ++v) {
     __m256 a, b;
@@ -361,6 +378,14 @@ bool dense_skinning_linear(const Deformable& d, const JointTransforms& joints, L
 bool dense_skinning(const Deformable& d, const JointTransforms& joints, Blend blend, bool with_normals,
                     const DenseOutput& out) {
   return skin_all(d, joints, blend, best_linear_kernel(), with_normals, out);
+}
+
+bool dense_skinning_linear_range(const Deformable& d, const JointTransforms& joints, LinearKernel kernel,
+                                 uint32_t primitive, uint32_t first, uint32_t count, const StridedOutput& out) {
+  const PrimitiveRecord& p = d.primitives[primitive];
+  const uint32_t begin = p.first_vertex + first;
+  const Range range{begin, begin + count, out.normals != nullptr, out.tangents != nullptr};
+  return skin_range(d, joints, Blend::linear, kernel, range, StridedSink{out, begin});
 }
 
 bool dense_skinning_range(const Deformable& d, const JointTransforms& joints, Blend blend, uint32_t primitive,

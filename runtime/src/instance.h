@@ -232,6 +232,8 @@ enum class LinearKernel : uint8_t { portable, sse2, avx2 };
 bool linear_kernel_available(LinearKernel kernel);
 bool dense_skinning_linear(const Deformable& d, const JointTransforms& joints, LinearKernel kernel, bool with_normals,
                            const DenseOutput& out);
+bool dense_skinning_linear_range(const Deformable& d, const JointTransforms& joints, LinearKernel kernel,
+                                 uint32_t primitive, uint32_t first, uint32_t count, const StridedOutput& out);
 
 }  // namespace skelform::runtime
 

@@ -35,7 +35,9 @@ struct Output {
 };
 
 // Per joint: a random rotation and translation, times a uniform scale (kind 0), a
-// non-uniform scale with shear (kind 1), or every second joint collapsed to a point (kind 2).
+// non-uniform scale with shear (kind 1), every second joint collapsed to a point (kind 2), or
+// a bottom row far from (0, 0, 0, 1) (kind 3: LBS ignores it, lane 3 of the AVX2 kernel's
+// columns carries it).
 std::vector<glm::mat4> random_pose(size_t joints, int kind, std::mt19937& random) {
   std::uniform_real_distribution<float> unit(-1.0f, 1.0f), scale(0.5f, 2.0f);
   std::vector<glm::mat4> pose(joints);
@@ -49,6 +51,8 @@ std::vector<glm::mat4> random_pose(size_t joints, int kind, std::mt19937& random
       m[1][0] += 0.3f * unit(random);  // shear
     }
     if (kind == 2 && j % 2 == 1) m = glm::mat4(glm::vec4(0.0f), glm::vec4(0.0f), glm::vec4(0.0f), m[3]);
+    if (kind == 3)
+      for (int c = 0; c < 4; ++c) m[c][3] = 3e38f;
     pose[j] = m;
   }
   return pose;
@@ -61,24 +65,24 @@ void check_kernels(const skelform::test::RuntimeModel& model) {
   const skelform::runtime::Deformable& d = *instance->deformable;
   REQUIRE(d.joint_count > 0);
   std::mt19937 random(20261127);
-  for (int kind = 0; kind < 3; ++kind)
+  for (int kind = 0; kind < 4; ++kind)
     for (int trial = 0; trial < 3; ++trial) {
       CAPTURE(kind);
       const std::vector<glm::mat4> pose = random_pose(d.joint_count, kind, random);
       REQUIRE(sf_instance_set_joint_matrices(instance, &pose[0][0][0], pose.size(), 0) == SF_OK);
       for (bool with_normals : {true, false}) {
         Output portable(d.vertex_count);
-        skelform::runtime::dense_skinning_linear(d, instance->joints, LinearKernel::portable, with_normals,
-                                                 portable.view());
+        CHECK(skelform::runtime::dense_skinning_linear(d, instance->joints, LinearKernel::portable, with_normals,
+                                                       portable.view()));  // these poses stay finite
         for (LinearKernel kernel : {LinearKernel::sse2, LinearKernel::avx2}) {
           if (!skelform::runtime::linear_kernel_available(kernel)) continue;
           CAPTURE(int(kernel));
           Output out(d.vertex_count);
-          skelform::runtime::dense_skinning_linear(d, instance->joints, kernel, with_normals, out.view());
+          CHECK(skelform::runtime::dense_skinning_linear(d, instance->joints, kernel, with_normals, out.view()));
           CHECK(out == portable);
         }
         Output chosen(d.vertex_count);
-        skelform::runtime::dense_skinning(d, instance->joints, Blend::linear, with_normals, chosen.view());
+        CHECK(skelform::runtime::dense_skinning(d, instance->joints, Blend::linear, with_normals, chosen.view()));
         CHECK(chosen == portable);
       }
     }
@@ -88,12 +92,58 @@ void check_kernels(const skelform::test::RuntimeModel& model) {
 }  // namespace
 
 TEST_CASE("dense skinning: every LBS kernel gives the portable loop's bits") {
-  MESSAGE("kernels compared with the portable loop: "
-          << (skelform::runtime::linear_kernel_available(LinearKernel::sse2) ? "sse2 " : "")
-          << (skelform::runtime::linear_kernel_available(LinearKernel::avx2) ? "avx2" : "(no avx2 on this CPU/build)"));
+  const std::string sse2 = skelform::runtime::linear_kernel_available(LinearKernel::sse2) ? "sse2 " : "";
+  const std::string avx2 =
+      skelform::runtime::linear_kernel_available(LinearKernel::avx2) ? "avx2" : "(no avx2 on this CPU/build)";
+  MESSAGE("kernels compared with the portable loop: " << sse2 << avx2);
   check_kernels(skelform::test::capsule_model());
   for (const std::string& name : skelform::test::sample_names())
     if (const skelform::test::RuntimeModel* model = skelform::test::sample_model(name)) check_kernels(*model);
+}
+
+TEST_CASE("dense skinning: every LBS kernel finds the positions that overflow where the portable loop does") {
+  // z scaled by 3.4e38 (x, y kept): the capsule's vertices above z ≈ 1 overflow, those below do
+  // not. Every range of one and of two vertices (both parities: the AVX2 kernel's pairs) gets
+  // each kernel's verdict, which must be the portable loop's, on both primitives (with and
+  // without tangents); and the verdicts must be of both kinds, or the test proves nothing.
+  const skelform::test::RuntimeModel& model = skelform::test::capsule_model();
+  skelform::test::InstancePtr instance(model.asset);
+  const skelform::runtime::Deformable& d = *instance.instance->deformable;
+  glm::mat4 stretch(1.0f);
+  stretch[2][2] = 3.4e38f;
+  const std::vector<glm::mat4> pose(d.joint_count, stretch);
+  REQUIRE(sf_instance_set_joint_matrices(instance, &pose[0][0][0], pose.size(), 0) == SF_OK);
+  size_t finite = 0, overflowing = 0;
+  for (uint32_t p = 0; p < d.primitives.size(); ++p) {
+    const uint32_t n = d.primitives[p].vertex_count;
+    std::vector<float> buffer(16 * size_t{n});
+    auto verdict = [&](LinearKernel kernel, uint32_t first, uint32_t count) {
+      const skelform::runtime::StridedOutput out{
+          reinterpret_cast<unsigned char*>(buffer.data()),
+          64,
+          reinterpret_cast<unsigned char*>(buffer.data() + 4),
+          64,
+          d.primitives[p].has_tangents ? reinterpret_cast<unsigned char*>(buffer.data() + 8) : nullptr,
+          64};
+      return skelform::runtime::dense_skinning_linear_range(d, instance.instance->joints, kernel, p, first, count, out);
+    };
+    for (uint32_t count : {1u, 2u})
+      for (uint32_t first = 0; first + count <= n; ++first) {
+        const bool expected = verdict(LinearKernel::portable, first, count);
+        (expected ? finite : overflowing) += 1;
+        for (LinearKernel kernel : {LinearKernel::sse2, LinearKernel::avx2})
+          if (skelform::runtime::linear_kernel_available(kernel)) {
+            CAPTURE(p);
+            CAPTURE(first);
+            CAPTURE(count);
+            CAPTURE(int(kernel));
+            CHECK(verdict(kernel, first, count) == expected);
+          }
+      }
+  }
+  MESSAGE("ranges finite / overflowing: " << finite << " / " << overflowing);
+  CHECK(finite > 0);
+  CHECK(overflowing > 0);
 }
 
 namespace {
@@ -141,7 +191,7 @@ void check_ranges(const skelform::test::RuntimeModel& model) {
         const sf_vertex_output whole = interleaved(expected, n, true, pinfo.has_tangents != 0);
         REQUIRE(sf_instance_write(evaluated, p, &whole) == SF_OK);
         interleaved(got, n, true, pinfo.has_tangents != 0);
-        // Ranges of 1, 7, 64, ... vertices, the last one what is left.
+        // Ranges of 1, 7, 55, 439, ... vertices, the last one what is left.
         for (uint32_t first = 0, size = 1; first < n; first += size, size = size * 8 - 1) {
           const uint32_t count = std::min<uint32_t>(size, uint32_t(n) - first);
           sf_vertex_output part = whole;
@@ -192,6 +242,10 @@ TEST_CASE("dense skinning: sf_instance_skin_range refuses bad calls with their c
   std::vector<float> buffer;
   const sf_vertex_output o = interleaved(buffer, n, true, true);
   const std::vector<float> untouched = buffer;
+  // The instance's message is a previous call's, and stays: this call keeps none.
+  CHECK(sf_instance_set_joint_matrices(instance, nullptr, 1, 0) == SF_ERROR_INVALID_ARGUMENT);
+  const std::string message = sf_instance_last_error(instance);
+  REQUIRE(!message.empty());
   CHECK(sf_instance_skin_range(nullptr, SF_METHOD_LBS, 0, 0, n, &o) == SF_ERROR_INVALID_ARGUMENT);
   CHECK(sf_instance_skin_range(instance, SF_METHOD_LBS, 0, 0, n, nullptr) == SF_ERROR_INVALID_ARGUMENT);
   CHECK(sf_instance_skin_range(instance, 7, 0, 0, n, &o) == SF_ERROR_INVALID_ARGUMENT);
@@ -203,13 +257,18 @@ TEST_CASE("dense skinning: sf_instance_skin_range refuses bad calls with their c
   sf_vertex_output small = o;
   small.vertex_capacity = n - 1;
   CHECK(sf_instance_skin_range(instance, SF_METHOD_LBS, 0, 0, n, &small) == SF_ERROR_INVALID_ARGUMENT);
-  sf_vertex_output narrow = o;
-  narrow.normal_stride = 8;
-  CHECK(sf_instance_skin_range(instance, SF_METHOD_LBS, 0, 0, n, &narrow) == SF_ERROR_INVALID_ARGUMENT);
+  for (int stream = 0; stream < 3; ++stream) {
+    sf_vertex_output narrow = o;
+    (stream == 0   ? narrow.position_stride
+     : stream == 1 ? narrow.normal_stride
+                   : narrow.tangent_stride) = stream == 2 ? 12 : 8;
+    CHECK(sf_instance_skin_range(instance, SF_METHOD_LBS, 0, 0, n, &narrow) == SF_ERROR_INVALID_ARGUMENT);
+  }
   std::vector<float> other;
   const sf_vertex_output tangents = interleaved(other, plain.vertex_count, true, true);
   CHECK(sf_instance_skin_range(instance, SF_METHOD_LBS, 1, 0, plain.vertex_count, &tangents) == SF_ERROR_UNSUPPORTED);
   CHECK(buffer == untouched);
+  CHECK(sf_instance_last_error(instance) == message);
   // A pose whose positions overflow: refused (the range's buffers then hold anything).
   // (A uniform scale and a translation near FLT_MAX: p·s + t overflows wherever p > 0.)
   glm::mat4 scaled(3.4e38f);
@@ -238,4 +297,57 @@ TEST_CASE("dense skinning: sf_instance_skin_range refuses bad calls with their c
   std::vector<float> empty;
   const sf_vertex_output none = interleaved(empty, 0, true, true);
   CHECK(sf_instance_skin_range(instance, SF_METHOD_LBS, 0, n, 0, &none) == SF_OK);
+}
+
+TEST_CASE("dense skinning: sf_instance_skin_range under the handle driver is unsupported") {
+  const skelform::test::RuntimeModel& model = skelform::test::capsule_model();
+  skelform::test::InstancePtr instance(model.asset);
+  const uint32_t handle = 0, pinned = 1;
+  REQUIRE(sf_instance_set_handle_set(instance, &handle, 1, &pinned, 1) == SF_OK);
+  const float target[3] = {0.0f, 0.0f, 0.0f};
+  REQUIRE(sf_instance_set_handle_targets(instance, target, 1, 0) == SF_OK);
+  std::vector<float> buffer;
+  const sf_vertex_output o = interleaved(buffer, 1, true, false);
+  CHECK(sf_instance_skin_range(instance, SF_METHOD_LBS, 1, 0, 1, &o) == SF_ERROR_UNSUPPORTED);
+  // Joint matrices select the skin again.
+  sf_deformable_info info{};
+  REQUIRE(sf_asset_deformable_info(model.asset, 0, &info) == SF_OK);
+  const std::vector<glm::mat4> rest(info.joint_count, glm::mat4(1.0f));
+  REQUIRE(sf_instance_set_joint_matrices(instance, &rest[0][0][0], rest.size(), 0) == SF_OK);
+  CHECK(sf_instance_skin_range(instance, SF_METHOD_LBS, 1, 0, 1, &o) == SF_OK);
+}
+
+TEST_CASE("dense skinning: sf_instance_skin_range writes at any byte stride, as sf_instance_write does") {
+  // 13-byte elements: every second position, normal and tangent starts off a 4-byte boundary.
+  const skelform::test::RuntimeModel& model = skelform::test::capsule_model();
+  skelform::test::InstancePtr instance(model.asset);
+  sf_deformable_info info{};
+  REQUIRE(sf_asset_deformable_info(model.asset, 0, &info) == SF_OK);
+  std::mt19937 random(13);
+  const std::vector<glm::mat4> pose = random_pose(info.joint_count, 0, random);
+  REQUIRE(sf_instance_set_joint_matrices(instance, &pose[0][0][0], pose.size(), 0) == SF_OK);
+  sf_eval_options lbs{};
+  lbs.method = SF_METHOD_LBS;
+  REQUIRE(sf_instance_evaluate(instance, &lbs) == SF_OK);
+  for (uint32_t p = 0; p < info.primitive_count; ++p) {
+    sf_primitive_info pinfo{};
+    REQUIRE(sf_asset_primitive_info(model.asset, 0, p, &pinfo) == SF_OK);
+    const size_t n = pinfo.vertex_count, stride = 13 + 13 + 17;
+    std::vector<unsigned char> written(n * stride + 1, 0xAB), ranged(n * stride + 1, 0xAB);
+    auto output = [&](std::vector<unsigned char>& bytes) {
+      sf_vertex_output o{};
+      o.positions = reinterpret_cast<float*>(bytes.data() + 1);
+      o.position_stride = stride;
+      o.normals = reinterpret_cast<float*>(bytes.data() + 1 + 13);
+      o.normal_stride = stride;
+      o.tangents = pinfo.has_tangents ? reinterpret_cast<float*>(bytes.data() + 1 + 26) : nullptr;
+      o.tangent_stride = stride;
+      o.vertex_capacity = n;
+      return o;
+    };
+    const sf_vertex_output a = output(written), b = output(ranged);
+    REQUIRE(sf_instance_write(instance, p, &a) == SF_OK);
+    REQUIRE(sf_instance_skin_range(instance, SF_METHOD_LBS, p, 0, uint32_t(n), &b) == SF_OK);
+    CHECK(written == ranged);
+  }
 }

@@ -32,9 +32,10 @@
  *   threads may not write out of the same instance at once. The exception is
  *   sf_instance_skin_range, which records nothing: a job system may skin ranges of one
  *   character on several threads at once.
- * - There is no global mutable state. No call throws, aborts or exits on bad input; every
- *   call returns an sf_result and keeps a readable message (sf_instance_last_error, or the
- *   caller's buffer in sf_load_options for loading).
+ * - There is no global mutable state (beyond the CPU's features, read once and thread-safely
+ *   to choose a kernel). No call throws, aborts or exits on bad input; every call returns an
+ *   sf_result and keeps a readable message (sf_instance_last_error, or the caller's buffer in
+ *   sf_load_options for loading), except sf_instance_skin_range, which returns its code only.
  * - Memory is allocated only when an asset or an instance is created (and when a handle set
  *   is changed or the contact pass turned on); evaluation and output never allocate.
  *
@@ -414,9 +415,12 @@ SF_API sf_result sf_instance_write(const sf_instance* instance, uint32_t primiti
  * engine's skinning job. A NULL normals stream computes no normals; tangents are written only
  * when requested (SF_ERROR_UNSUPPORTED for a primitive without authored tangents).
  * It changes nothing in the instance (not its last evaluation, nor its output, nor its
- * message): calls on one instance, on disjoint ranges or not, may run on several threads at
- * once (a job system splitting a character), provided no other call on that instance runs
- * meanwhile. Hence it returns a code only, sf_instance_last_error does not describe it:
+ * message): calls on one instance may run on several threads at once (a job system splitting
+ * a character), provided no other call on that instance runs meanwhile and their output
+ * elements do not overlap. The floats are the same on every thread and machine under the
+ * default floating-point environment (round to nearest, denormals kept); a worker thread that
+ * flushes denormals to zero may get other bits in their range. Any byte stride of at least the
+ * element works. Hence it returns a code only, sf_instance_last_error does not describe it:
  * SF_ERROR_INVALID_ARGUMENT for a NULL pointer, an unknown method, a primitive or range out of
  * range, a capacity below vertex_count, a stride below its element, or a pose whose positions
  * would not be finite (the range's buffers then hold unspecified values); SF_ERROR_UNSUPPORTED
