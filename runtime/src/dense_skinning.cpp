@@ -83,17 +83,51 @@ inline bool lanes_finite(__m128 sticky) {
   return lanes[0] == 0.0f && lanes[1] == 0.0f && lanes[2] == 0.0f;  // lane 3: the bottom row, not output
 }
 
+// The rest direction u (a normal, a tangent's xyz) through the blend's linear part (columns
+// c0, c1, c2; lane 3 unused), renormalised, into out (xyz), as the portable loop computes it:
+// (c0·x + c1·y) + c2·z per lane (transform_vector's order), the length of (x² + y²) + z²
+// (glm::dot's), and u itself where that is not above 1e-30 or not finite (normalize_or).
+inline void unit_direction(__m128 c0, __m128 c1, __m128 c2, const float* u, void* out) {
+  const __m128 t = _mm_add_ps(_mm_add_ps(_mm_mul_ps(c0, _mm_set1_ps(u[0])), _mm_mul_ps(c1, _mm_set1_ps(u[1]))),
+                              _mm_mul_ps(c2, _mm_set1_ps(u[2])));
+  const __m128 sq = _mm_mul_ps(t, t);
+  const __m128 sum = _mm_add_ss(_mm_add_ss(sq, _mm_shuffle_ps(sq, sq, 1)), _mm_movehl_ps(sq, sq));
+  const float length = _mm_cvtss_f32(_mm_sqrt_ss(sum));
+  if (length > 1e-30f && std::isfinite(length))
+    store3(out, _mm_div_ps(t, _mm_set1_ps(length)));
+  else
+    std::memcpy(out, u, 3 * sizeof(float));
+}
+
+// Vertex v's position, normal and tangent from its blend's columns c0..c3 (lane 3 unused):
+// x' = ((c0·x + c1·y) + c2·z) + c3 per lane, transform_point's sum in its order. Returns
+// `sticky` with the position accumulated (accumulate_non_finite).
+template <class Sink>
+inline __m128 finish_vertex(const Deformable& d, uint32_t v, const Range& range, const Sink& sink, __m128 c0, __m128 c1,
+                            __m128 c2, __m128 c3, __m128 sticky) {
+  const float* p = &d.rest_positions[v].x;
+  const __m128 xy = _mm_add_ps(_mm_mul_ps(c0, _mm_set1_ps(p[0])), _mm_mul_ps(c1, _mm_set1_ps(p[1])));
+  const __m128 position = _mm_add_ps(_mm_add_ps(xy, _mm_mul_ps(c2, _mm_set1_ps(p[2]))), c3);
+  store3(sink.position(v), position);
+  if (range.normals) unit_direction(c0, c1, c2, &d.rest_normals[v].x, sink.normal(v));
+  if (range.tangents) {
+    const glm::vec4& rest = d.rest_tangents[v];
+    unsigned char* out = static_cast<unsigned char*>(sink.tangent(v));
+    unit_direction(c0, c1, c2, &rest.x, out);
+    std::memcpy(out + 3 * sizeof(float), &rest.w, sizeof(float));  // the handedness as authored
+  }
+  return accumulate_non_finite(sticky, position);
+}
+
 // LBS four lanes at a time, bit for bit the portable kernel's result: the blend adds w·row in
 // influence order (the same multiply and add per element), the rows are transposed to columns
 // so that x' = ((c0·x + c1·y) + c2·z) + c3 per lane is transform_point's sum in its order, and
-// the normal's length is (x² + y²) + z² as glm::dot sums it. Tangents take the portable path.
+// the normal's length is (x² + y²) + z² as glm::dot sums it (finish_vertex).
 template <class Sink>
 bool skin_linear_sse2(const Deformable& d, const JointAffine* joints, Range range, Sink sink) {
   const uint32_t influences = d.influences;
   const uint16_t* joint_index = d.dense_joints.data();
   const float* weight = d.dense_weights.data();
-  const glm::vec3* rest_positions = d.rest_positions.data();
-  const glm::vec3* rest_normals = d.rest_normals.data();
   __m128 sticky = _mm_setzero_ps();
   for (uint32_t v = range.begin; v < range.end; ++v) {
     const size_t first = size_t(v) * influences;
@@ -107,30 +141,7 @@ bool skin_linear_sse2(const Deformable& d, const JointAffine* joints, Range rang
     }
     __m128 c0 = r0, c1 = r1, c2 = r2, c3 = _mm_setzero_ps();
     _MM_TRANSPOSE4_PS(c0, c1, c2, c3);
-    const glm::vec3 p = rest_positions[v];
-    const __m128 xy = _mm_add_ps(_mm_mul_ps(c0, _mm_set1_ps(p.x)), _mm_mul_ps(c1, _mm_set1_ps(p.y)));
-    const __m128 position = _mm_add_ps(_mm_add_ps(xy, _mm_mul_ps(c2, _mm_set1_ps(p.z))), c3);
-    sticky = accumulate_non_finite(sticky, position);
-    store3(sink.position(v), position);
-    if (range.normals) {
-      const glm::vec3 n = rest_normals[v];
-      const __m128 t = _mm_add_ps(_mm_add_ps(_mm_mul_ps(c0, _mm_set1_ps(n.x)), _mm_mul_ps(c1, _mm_set1_ps(n.y))),
-                                  _mm_mul_ps(c2, _mm_set1_ps(n.z)));
-      const __m128 sq = _mm_mul_ps(t, t);
-      const __m128 sum = _mm_add_ss(_mm_add_ss(sq, _mm_shuffle_ps(sq, sq, 1)), _mm_movehl_ps(sq, sq));
-      const float length = _mm_cvtss_f32(_mm_sqrt_ss(sum));
-      if (length > 1e-30f && std::isfinite(length))
-        store3(sink.normal(v), _mm_div_ps(t, _mm_set1_ps(length)));
-      else
-        put3(sink.normal(v), n);
-    }
-    if (range.tangents) {
-      alignas(16) float m[12];
-      _mm_store_ps(m, r0);
-      _mm_store_ps(m + 4, r1);
-      _mm_store_ps(m + 8, r2);
-      put4(sink.tangent(v), skinned_tangent(m, d.rest_tangents[v]));
-    }
+    sticky = finish_vertex(d, v, range, sink, c0, c1, c2, c3, sticky);
   }
   return lanes_finite(sticky);
 }
@@ -230,35 +241,8 @@ __attribute__((target("avx2"))) bool skin_linear_avx2(const Deformable& d, const
   for (; v < range.end; ++v) {
     __m256 a, b;
     blend_columns_avx2<kInfluences>(joint_index, weight, influences, matrices, size_t(v) * influences, a, b);
-    const __m128 c0 = _mm256_castps256_ps128(a), c1 = _mm256_extractf128_ps(a, 1);
-    const __m128 c2 = _mm256_castps256_ps128(b), c3 = _mm256_extractf128_ps(b, 1);
-    const float* p = &rest_positions[v].x;
-    const __m128 xy = _mm_add_ps(_mm_mul_ps(c0, _mm_broadcast_ss(p)), _mm_mul_ps(c1, _mm_broadcast_ss(p + 1)));
-    const __m128 position = _mm_add_ps(_mm_add_ps(xy, _mm_mul_ps(c2, _mm_broadcast_ss(p + 2))), c3);
-    sticky = accumulate_non_finite(sticky, position);
-    store3(sink.position(v), position);
-    if (range.normals) {
-      const float* n = &rest_normals[v].x;
-      const __m128 t =
-          _mm_add_ps(_mm_add_ps(_mm_mul_ps(c0, _mm_broadcast_ss(n)), _mm_mul_ps(c1, _mm_broadcast_ss(n + 1))),
-                     _mm_mul_ps(c2, _mm_broadcast_ss(n + 2)));
-      const __m128 sq = _mm_mul_ps(t, t);
-      const __m128 sum = _mm_add_ss(_mm_add_ss(sq, _mm_shuffle_ps(sq, sq, 1)), _mm_movehl_ps(sq, sq));
-      const float length = _mm_cvtss_f32(_mm_sqrt_ss(sum));
-      if (length > 1e-30f && std::isfinite(length))
-        store3(sink.normal(v), _mm_div_ps(t, _mm_set1_ps(length)));
-      else
-        put3(sink.normal(v), rest_normals[v]);
-    }
-    if (range.tangents) {
-      alignas(32) float columns[16];
-      _mm256_store_ps(columns, a);
-      _mm256_store_ps(columns + 8, b);
-      float m[12];
-      for (int r = 0; r < 3; ++r)
-        for (int c = 0; c < 4; ++c) m[4 * r + c] = columns[4 * c + r];
-      put4(sink.tangent(v), skinned_tangent(m, d.rest_tangents[v]));
-    }
+    sticky = finish_vertex(d, v, range, sink, _mm256_castps256_ps128(a), _mm256_extractf128_ps(a, 1),
+                           _mm256_castps256_ps128(b), _mm256_extractf128_ps(b, 1), sticky);
   }
   return lanes_finite(sticky);
 }
