@@ -3,6 +3,7 @@
 // tangents, on the capsule (authored tangents, a primitive without) and the Khronos samples,
 // under random similarity poses, non-uniform scale and shear, and joints collapsed to a point
 // (whose normals fall back to the rest normal). The kernel the runtime picks is one of them.
+#include "glb_edit.h"
 #include "instance.h"
 #include "runtime/runtime_models.h"
 
@@ -58,10 +59,10 @@ std::vector<glm::mat4> random_pose(size_t joints, int kind, std::mt19937& random
   return pose;
 }
 
-void check_kernels(const skelform::test::RuntimeModel& model) {
-  INFO(model.name);
+void check_kernels(const sf_asset* asset, const std::string& name) {
+  INFO(name);
   sf_instance* instance = nullptr;
-  REQUIRE(sf_instance_create(model.asset, 0, &instance) == SF_OK);
+  REQUIRE(sf_instance_create(asset, 0, &instance) == SF_OK);
   const skelform::runtime::Deformable& d = *instance->deformable;
   REQUIRE(d.joint_count > 0);
   std::mt19937 random(20261127);
@@ -96,9 +97,40 @@ TEST_CASE("dense skinning: every LBS kernel gives the portable loop's bits") {
   const std::string avx2 =
       skelform::runtime::linear_kernel_available(LinearKernel::avx2) ? "avx2" : "(no avx2 on this CPU/build)";
   MESSAGE("kernels compared with the portable loop: " << sse2 << avx2);
-  check_kernels(skelform::test::capsule_model());
+  check_kernels(skelform::test::capsule_model().asset, "capsule");
   for (const std::string& name : skelform::test::sample_names())
-    if (const skelform::test::RuntimeModel* model = skelform::test::sample_model(name)) check_kernels(*model);
+    if (const skelform::test::RuntimeModel* model = skelform::test::sample_model(name))
+      check_kernels(model->asset, name);
+}
+
+TEST_CASE("dense skinning: with 8 and 12 influences too (the AVX2 kernel's other forms)") {
+  // The capsule with its skin repeated in JOINTS_1 (and JOINTS_2): every asset of the data
+  // directory has 4 influences, so only this reaches the kernels' 8-influence and generic loops.
+  const skelform::test::RuntimeModel& capsule = skelform::test::capsule_model();
+  for (int sets : {2, 3}) {
+    CAPTURE(sets);
+    skelform::test::Glb glb(capsule.baked_glb);
+    for (auto& primitive : glb.json["meshes"][0]["primitives"]) {
+      auto& attributes = primitive["attributes"];
+      for (int set = 1; set < sets; ++set) {
+        attributes["JOINTS_" + std::to_string(set)] = attributes["JOINTS_0"];
+        attributes["WEIGHTS_" + std::to_string(set)] = attributes["WEIGHTS_0"];
+      }
+    }
+    const std::string bytes = glb.bytes();
+    char message[512] = {};
+    sf_load_options load{};
+    load.error_message = message;
+    load.error_message_capacity = sizeof message;
+    sf_asset* asset = nullptr;
+    REQUIRE_MESSAGE(sf_asset_load_memory(bytes.data(), bytes.size(), &load, &asset) == SF_OK, message);
+    sf_instance* instance = nullptr;
+    REQUIRE(sf_instance_create(asset, 0, &instance) == SF_OK);
+    CHECK(instance->deformable->influences == uint32_t(4 * sets));
+    sf_instance_destroy(instance);
+    check_kernels(asset, "capsule, " + std::to_string(sets) + " influence sets");
+    sf_asset_destroy(asset);
+  }
 }
 
 TEST_CASE("dense skinning: every LBS kernel finds the positions that overflow where the portable loop does") {
