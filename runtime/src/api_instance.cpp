@@ -191,7 +191,7 @@ sf_result sf_instance_set_joint_matrices(sf_instance* instance, const float* mat
     }
     glm::mat4* pose = instance->joints.matrices.data();
     for (size_t j = 0; j < count; ++j) read_element(matrices, stride, j, &pose[j][0][0], 16);
-    prepare_joints(d, pose, instance->joints);  // the normalised forms wait for a skelform evaluation
+    prepare_joints(d, instance->joints);  // the normalised forms wait for a skelform evaluation
     instance->driver = Driver::skin;
     return SF_OK;
   });

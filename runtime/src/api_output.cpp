@@ -22,6 +22,22 @@ void write_stream(float* destination, size_t stride, const Element* source, size
   for (size_t i = 0; i < count; ++i) std::memcpy(out + i * stride, &source[i], sizeof(Element));
 }
 
+// An sf_vertex_output's strides with 0 resolved to the packed element, and whether every
+// requested stream's stride holds its element (12 bytes, 16 for tangents).
+struct ResolvedStrides {
+  size_t position, normal, tangent;
+  bool valid;
+};
+
+ResolvedStrides resolve_strides(const sf_vertex_output& output) {
+  ResolvedStrides s{output.position_stride ? output.position_stride : 12,
+                    output.normal_stride ? output.normal_stride : 12,
+                    output.tangent_stride ? output.tangent_stride : 16, true};
+  s.valid = !((output.positions && s.position < 12) || (output.normals && s.normal < 12) ||
+              (output.tangents && s.tangent < 16));
+  return s;
+}
+
 }  // namespace
 
 extern "C" {
@@ -40,11 +56,8 @@ sf_result sf_instance_write(const sf_instance* instance, uint32_t primitive, con
     if (output->vertex_capacity < p.vertex_count)
       return fail(instance, SF_ERROR_INVALID_ARGUMENT, "sf_instance_write: capacity %zu, the primitive has %u vertices",
                   output->vertex_capacity, p.vertex_count);
-    const size_t position_stride = output->position_stride ? output->position_stride : 12;
-    const size_t normal_stride = output->normal_stride ? output->normal_stride : 12;
-    const size_t tangent_stride = output->tangent_stride ? output->tangent_stride : 16;
-    if ((output->positions && position_stride < 12) || (output->normals && normal_stride < 12) ||
-        (output->tangents && tangent_stride < 16))
+    const ResolvedStrides strides = resolve_strides(*output);
+    if (!strides.valid)
       return fail(instance, SF_ERROR_INVALID_ARGUMENT,
                   "sf_instance_write: a stride is smaller than its element (12 bytes, 16 for tangents)");
     if (output->tangents && !p.has_tangents)
@@ -52,12 +65,12 @@ sf_result sf_instance_write(const sf_instance* instance, uint32_t primitive, con
                   primitive);
     const size_t first = p.first_vertex, count = p.vertex_count;
     if (output->positions)
-      write_stream(output->positions, position_stride, instance->dense_positions.data() + first, count);
+      write_stream(output->positions, strides.position, instance->dense_positions.data() + first, count);
     // After an evaluation with SF_EVAL_SKIP_NORMALS the normal streams are left as they are.
     if (instance->normals_valid) {
-      if (output->normals) write_stream(output->normals, normal_stride, instance->dense_normals.data() + first, count);
+      if (output->normals) write_stream(output->normals, strides.normal, instance->dense_normals.data() + first, count);
       if (output->tangents)
-        write_stream(output->tangents, tangent_stride, instance->dense_tangents.data() + first, count);
+        write_stream(output->tangents, strides.tangent, instance->dense_tangents.data() + first, count);
     }
     return SF_OK;
   });
@@ -76,12 +89,8 @@ sf_result sf_instance_skin_range(const sf_instance* instance, uint32_t method, u
   if (first_vertex > p.vertex_count || vertex_count > p.vertex_count - first_vertex ||
       output->vertex_capacity < vertex_count)
     return SF_ERROR_INVALID_ARGUMENT;
-  const size_t position_stride = output->position_stride ? output->position_stride : 12;
-  const size_t normal_stride = output->normal_stride ? output->normal_stride : 12;
-  const size_t tangent_stride = output->tangent_stride ? output->tangent_stride : 16;
-  if ((output->positions && position_stride < 12) || (output->normals && normal_stride < 12) ||
-      (output->tangents && tangent_stride < 16))
-    return SF_ERROR_INVALID_ARGUMENT;
+  const ResolvedStrides strides = resolve_strides(*output);
+  if (!strides.valid) return SF_ERROR_INVALID_ARGUMENT;
   if (output->tangents && !p.has_tangents) return SF_ERROR_UNSUPPORTED;
   if (d.joint_count == 0 || d.influences == 0 || instance->driver != Driver::skin) return SF_ERROR_UNSUPPORTED;
   // Positions are always computed (their finiteness is the result); without a stream they go
@@ -89,11 +98,11 @@ sf_result sf_instance_skin_range(const sf_instance* instance, uint32_t method, u
   float scratch[3];
   const bool positions = output->positions != nullptr;
   const StridedOutput out{reinterpret_cast<unsigned char*>(positions ? output->positions : scratch),
-                          positions ? position_stride : 0,
+                          positions ? strides.position : 0,
                           reinterpret_cast<unsigned char*>(output->normals),
-                          normal_stride,
+                          strides.normal,
                           reinterpret_cast<unsigned char*>(output->tangents),
-                          tangent_stride};
+                          strides.tangent};
   const Blend blend = method == SF_METHOD_LBS ? Blend::linear : Blend::dual_quaternion;
   return dense_skinning_range(d, instance->joints, blend, primitive, first_vertex, vertex_count, out)
              ? SF_OK

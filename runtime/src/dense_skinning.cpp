@@ -332,6 +332,14 @@ bool skin_all(const Deformable& d, const JointTransforms& joints, Blend blend, L
   return finite;
 }
 
+// Vertices [first, first + count) of one primitive into the caller's streams.
+bool skin_strided(const Deformable& d, const JointTransforms& joints, Blend blend, LinearKernel kernel,
+                  uint32_t primitive, uint32_t first, uint32_t count, const StridedOutput& out) {
+  const uint32_t begin = d.primitives[primitive].first_vertex + first;
+  const Range range{begin, begin + count, out.normals != nullptr, out.tangents != nullptr};
+  return skin_range(d, joints, blend, kernel, range, StridedSink{out, begin});
+}
+
 }  // namespace
 
 bool linear_kernel_available(LinearKernel kernel) {
@@ -366,18 +374,12 @@ bool dense_skinning(const Deformable& d, const JointTransforms& joints, Blend bl
 
 bool dense_skinning_linear_range(const Deformable& d, const JointTransforms& joints, LinearKernel kernel,
                                  uint32_t primitive, uint32_t first, uint32_t count, const StridedOutput& out) {
-  const PrimitiveRecord& p = d.primitives[primitive];
-  const uint32_t begin = p.first_vertex + first;
-  const Range range{begin, begin + count, out.normals != nullptr, out.tangents != nullptr};
-  return skin_range(d, joints, Blend::linear, kernel, range, StridedSink{out, begin});
+  return skin_strided(d, joints, Blend::linear, kernel, primitive, first, count, out);
 }
 
 bool dense_skinning_range(const Deformable& d, const JointTransforms& joints, Blend blend, uint32_t primitive,
                           uint32_t first, uint32_t count, const StridedOutput& out) {
-  const PrimitiveRecord& p = d.primitives[primitive];
-  const uint32_t begin = p.first_vertex + first;
-  const Range range{begin, begin + count, out.normals != nullptr, out.tangents != nullptr};
-  return skin_range(d, joints, blend, best_linear_kernel(), range, StridedSink{out, begin});
+  return skin_strided(d, joints, blend, best_linear_kernel(), primitive, first, count, out);
 }
 
 }  // namespace skelform::runtime

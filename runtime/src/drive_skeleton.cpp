@@ -8,11 +8,9 @@
 
 namespace skelform::runtime {
 
-void prepare_joints(const Deformable& d, const glm::mat4* matrices, JointTransforms& joints) {
-  for (size_t j = 0; j < d.joint_count; ++j) {
-    joints.matrices[j] = matrices[j];
-    prepare_joint(matrices[j], joints.affine[j], joints.dual_quaternion[j]);
-  }
+void prepare_joints(const Deformable& d, JointTransforms& joints) {
+  for (size_t j = 0; j < d.joint_count; ++j)
+    prepare_joint(joints.matrices[j], joints.affine[j], joints.dual_quaternion[j]);
   joints.skin_prepared = false;
 }
 
@@ -47,8 +45,7 @@ void prepare_skin_joints(const Deformable& d, JointTransforms& joints) {
     const glm::mat4 normalised = scale == 1.0f ? matrices[j] : matrices[j] * inverse;
     glm::mat4 m = normalised;
     m[3][3] = 1.0f;
-    JointDualQuaternion& dq = joints.skin_dual_quaternion[j];
-    prepare_joint(m, joints.skin_affine[j], dq);
+    prepare_joint(m, joints.skin_affine[j], joints.skin_dual_quaternion[j]);
     const float ratio = all_equal ? 1.0f : joints.scale_ratio[j] * inverse;
     joints.scale_ratio[j] = std::isfinite(ratio) ? ratio : 1.0f;
     joints.uniform = joints.uniform && joints.scale_ratio[j] == 1.0f;

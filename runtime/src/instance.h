@@ -68,10 +68,10 @@ struct JointTransforms {
   bool skin_prepared = true;
 };
 
-// Prepares `joints` from column-major matrices (count = d.joint_count; finite, checked by the
-// caller): the caller's representations (affine, dual_quaternion) and `matrices` itself; the
-// normalised ones wait for prepare_skin_joints.
-void prepare_joints(const Deformable& d, const glm::mat4* matrices, JointTransforms& joints);
+// Prepares the caller's representations (affine, dual_quaternion) from joints.matrices
+// (column-major, d.joint_count of them, finite: checked by the caller); the normalised ones
+// wait for prepare_skin_joints.
+void prepare_joints(const Deformable& d, JointTransforms& joints);
 // The normalised representations, σ and the ratios from joints.matrices (skin_prepared).
 void prepare_skin_joints(const Deformable& d, JointTransforms& joints);
 
