@@ -27,6 +27,27 @@ DenseBuffers lbs_buffers(sf_instance& instance) {
   return {&instance.lbs_positions, &instance.lbs_normals, &instance.lbs_tangents};
 }
 
+// The contact pass inside the guard (lbs_guard.h FirstRoundHook): it takes the guard's first
+// search as its detection, so that one exact search serves both.
+class ContactHook final : public FirstRoundHook {
+ public:
+  ContactHook(const ContactMesh& mesh, float scale, glm::vec3* k, uint32_t vertex_count, ContactWorkspace& ws,
+              const ContactBlend& blend)
+      : mesh_(mesh), scale_(scale), k_(k), vertex_count_(vertex_count), ws_(ws), blend_(blend) {}
+  const Array<uint32_t>& after_first_search(const ContactPairs& pairs) override {
+    resolve_contacts(mesh_, scale_, k_, vertex_count_, ws_, blend_, &pairs);
+    return ws_.moved;
+  }
+
+ private:
+  const ContactMesh& mesh_;
+  float scale_;
+  glm::vec3* k_;
+  uint32_t vertex_count_;
+  ContactWorkspace& ws_;
+  ContactBlend blend_;
+};
+
 // True when `count` floats are all finite. A test of the exponent bits, with no branch per
 // value, that the compiler vectorises: a small fraction of the pass that wrote them.
 bool floats_finite(const float* values, size_t count) {
@@ -196,14 +217,17 @@ void evaluate_skelform(sf_instance& instance, const sf_eval_options& options, bo
   const bool blended = skin && !instance.lbs_positions.empty();
   const DenseOutput lbs = lbs_buffers(instance).output();
   if (blended) dense_skinning(d, instance.joints, Blend::linear, with_normals, lbs);
-  if (instance.contacts_enabled) {
-    ContactBlend blend;
-    if (blended) blend = {lbs.positions, d.skelform_weight.data()};
-    resolve_contacts(d.welded, scale, result.positions, d.vertex_count, instance.contact, blend);
-  }
+  // Blended, the pass runs inside the guard's first round and takes its search (ContactHook).
+  if (instance.contacts_enabled && !blended)
+    resolve_contacts(d.welded, scale, result.positions, d.vertex_count, instance.contact);
   // 6. LBS where LBS is exact, and never an intersection LBS does not have (lbs_guard.h),
   // blended in place.
-  if (blended) guard_and_blend(d, d.welded, scale, result, lbs, with_normals, result, instance.guard);
+  if (blended) {
+    ContactHook contacts(d.welded, scale, result.positions, d.vertex_count, instance.contact,
+                         {lbs.positions, d.skelform_weight.data()});
+    guard_and_blend(d, d.welded, scale, result, lbs, with_normals, result, instance.guard,
+                    instance.contacts_enabled ? &contacts : nullptr);
+  }
 }
 
 sf_result evaluate(sf_instance& instance, const sf_eval_options& options) {

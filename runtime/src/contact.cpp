@@ -69,8 +69,17 @@ struct CellRange {
 // them, and the triangle tests at the current positions.
 class Grid {
  public:
-  Grid(const ContactMesh& mesh, float gap, ContactWorkspace& ws)
-      : mesh_(mesh), ws_(ws), x_(ws.positions.data()), gap_(gap) {}
+  Grid(const ContactMesh& mesh, float gap, ContactWorkspace& ws, const ContactPairs* shared)
+      : mesh_(mesh), ws_(ws), x_(ws.positions.data()), gap_(gap), shared_(shared) {}
+
+  // With a shared search (ContactPairs), its hierarchy stands in for the cells: only checks the
+  // positions.
+  bool use_shared(float pad) {
+    for (uint32_t v = 0; v < mesh_.vertex_count; ++v)
+      if (!finite(x_[v])) return false;
+    pad_ = pad;
+    return true;
+  }
 
   // Buckets every triangle by its box now. `pad` is how far a vertex may move from here during
   // the pass: gather() looks that much further. False when a position is not finite (the pass
@@ -163,6 +172,12 @@ class Grid {
       stored[0] = a.x, stored[1] = a.y, stored[2] = a.z, stored[3] = b.x, stored[4] = b.y, stored[5] = b.z;
       ws_.candidates.push_back(t);  // at most every triangle: reserved
     };
+    if (shared_) {
+      const float query[6] = {lo.x - pad_, lo.y - pad_, lo.z - pad_, hi.x + pad_, hi.y + pad_, hi.z + pad_};
+      query_triangle_hierarchy(*shared_->hierarchy, shared_->node_boxes, *shared_->boxes, query,
+                               [&](uint32_t t) { consider(t); });
+      return;
+    }
     const CellRange r = cell_range(lo - glm::vec3(pad_), hi + glm::vec3(pad_));
     for (int z = r.lo[2]; z <= r.hi[2]; ++z)
       for (int y = r.lo[1]; y <= r.hi[1]; ++y)
@@ -371,6 +386,7 @@ class Grid {
   ContactWorkspace& ws_;
   const glm::vec3* x_;
   float gap_;
+  const ContactPairs* shared_;
   glm::vec3 origin_{0.0f};
   float inverse_cell_ = 1.0f, pad_ = 0.0f;
   int dims_[3] = {1, 1, 1};
@@ -392,13 +408,16 @@ ContactWorkspace make_contact_workspace(const ContactMesh& mesh, const Allocator
   ws.stamps.assign(mesh.triangle_count, 0u);
   ws.candidates.reserve(mesh.triangle_count);
   ws.candidate_boxes.resize(6 * size_t(mesh.triangle_count));
+  ws.moved.reserve(mesh.vertex_count);
   ws.entries.resize(size_t(kEntriesPerTriangle) * mesh.triangle_count);
   return ws;
 }
 
 ContactStats resolve_contacts(const ContactMesh& mesh, float scale, glm::vec3* dense_positions,
-                              uint32_t dense_vertex_count, ContactWorkspace& ws, const ContactBlend& blend) {
+                              uint32_t dense_vertex_count, ContactWorkspace& ws, const ContactBlend& blend,
+                              const ContactPairs* detected) {
   ContactStats stats;
+  ws.moved.clear();
   // The pass's lengths follow the output's scale (instance.h JointTransforms).
   const float gap = mesh.gap * scale, cap = mesh.cap * scale;
   if (mesh.triangle_count < 2 || dense_vertex_count != mesh.weld.size() || mesh.tangled_at_rest) return stats;
@@ -411,8 +430,8 @@ ContactStats resolve_contacts(const ContactMesh& mesh, float scale, glm::vec3* d
   if (blend.lbs)
     for (uint32_t i = 0; i < dense_vertex_count; ++i)
       if (!(blend.weight[i] >= kContactMinWeight)) ws.state[mesh.weld[i]] = 0;
-  Grid grid(mesh, gap, ws);
-  if (!grid.build(cap)) return stats;  // a non-finite position: leave the output as it is
+  Grid grid(mesh, gap, ws, detected);
+  if (!(detected ? grid.use_shared(cap) : grid.build(cap))) return stats;  // a non-finite position: leave it
   ws.budget = PairBudget(mesh.triangle_count, kContactBudgetPasses);
   auto spent = [&] {
     stats.over_budget = ws.budget.left == 0;  // then move nothing: the counts were cut short
@@ -421,7 +440,7 @@ ContactStats resolve_contacts(const ContactMesh& mesh, float scale, glm::vec3* d
   // Detection: the corners of every intersecting pair become active.
   ws.active.clear();
   const uint32_t* tri = mesh.triangles.data();
-  stats.pairs_before = grid.for_each_pair([&](uint32_t s, uint32_t t) {
+  auto activate = [&](uint32_t s, uint32_t t) {
     // A pair the modeller made (it intersects at rest) is not a contact to resolve.
     const uint64_t key = uint64_t(std::min(s, t)) << 32 | std::max(s, t);
     if (std::binary_search(mesh.rest_pairs.begin(), mesh.rest_pairs.end(), key)) return;
@@ -431,7 +450,14 @@ ContactStats resolve_contacts(const ContactMesh& mesh, float scale, glm::vec3* d
           ws.state[v] |= kActive;
           ws.active.push_back(v);  // capacity reserved for every vertex: no allocation
         }
-  });
+  };
+  if (detected) {
+    for (size_t i = 0; i < detected->count; ++i)
+      activate(uint32_t(detected->keys[i] >> 32), uint32_t(detected->keys[i]));
+    stats.pairs_before = uint32_t(detected->count);
+  } else {
+    stats.pairs_before = grid.for_each_pair(activate);
+  }
   if (spent() || stats.pairs_before == 0 || ws.active.empty()) return stats;
   std::sort(ws.active.begin(), ws.active.end());
   for (uint32_t v : ws.active) ws.start[v] = x[v];
@@ -473,7 +499,9 @@ ContactStats resolve_contacts(const ContactMesh& mesh, float scale, glm::vec3* d
     }
     if (!any) break;
   }
-  for (uint32_t v : ws.active) stats.moved += (ws.state[v] & kMoved) ? 1u : 0u;
+  for (uint32_t v : ws.active)
+    if (ws.state[v] & kMoved) ws.moved.push_back(v);  // capacity for every vertex
+  stats.moved = uint32_t(ws.moved.size());
   if (stats.moved)
     for (uint32_t i = 0; i < dense_vertex_count; ++i)
       if (ws.state[mesh.weld[i]] & kMoved) {

@@ -76,7 +76,8 @@ struct ContactWorkspace {
         normals(a),
         stamps(a),
         candidates(a),
-        candidate_boxes(a) {}
+        candidate_boxes(a),
+        moved(a) {}
   Array<glm::vec3> positions;    // welded positions
   Array<glm::vec3> start;        // position of each active vertex when the pass began
   Array<uint8_t> state;          // per welded vertex: movable, active (in a detected pair), moved
@@ -89,6 +90,7 @@ struct ContactWorkspace {
   Array<uint32_t> stamps;        // per triangle: the last gather that listed it
   Array<uint32_t> candidates;    // the last gather's triangles
   Array<float> candidate_boxes;  // their boxes when gathered (lo xyz, hi xyz), 6 per triangle reserved
+  Array<uint32_t> moved;         // the welded vertices the last pass moved, ascending
   uint32_t stamp = 0;
   // This pass's work: every triangle pair a search or a push visits spends one. A surface
   // tangled over itself would make the pass quadratic (all boxes meeting all boxes); past
@@ -119,6 +121,19 @@ struct ContactBlend {
   const float* weight = nullptr;   // w per dense vertex
 };
 
+// The caller's search of the mesh the pass sees (the LBS guard's first round, lbs_guard.h), which
+// then stands in for the pass's own grid: its intersecting pairs of non-adjacent triangles, as
+// s << 32 | t with s < t (every such pair with a movable corner), are the pass's detection, and
+// its hierarchy, with the node and triangle boxes at the positions the pass starts from, serves
+// the pass's gathers.
+struct ContactPairs {
+  const uint64_t* keys = nullptr;
+  size_t count = 0;
+  const TriangleHierarchy* hierarchy = nullptr;
+  const float* node_boxes = nullptr;
+  const SlotBoxes* boxes = nullptr;
+};
+
 // With a blend, a welded vertex moves only if every copy of it takes at least this share of
 // skelform's result: a copy below it (a rigid one, at 0) would stay behind and open the seam,
 // and K = L + (x − L)/w must stay finite.
@@ -130,9 +145,10 @@ constexpr float kContactMinWeight = 1e-6f;
 // kContactMinWeight (rigid parts stay rigid), and writes each moved copy's K back so that its
 // blend lands where the pass put it (K = L + (x − L) / w): a vertex that takes a tenth of
 // skelform's result still gets the whole of its push. Without one, it resolves the contacts of
-// K and any vertex may move.
+// K and any vertex may move. With `detected`, its pairs are the pass's detection. Lists the
+// moved welded vertices in workspace.moved.
 ContactStats resolve_contacts(const ContactMesh& mesh, float scale, glm::vec3* dense_positions,
                               uint32_t dense_vertex_count, ContactWorkspace& workspace,
-                              const ContactBlend& blend = ContactBlend());
+                              const ContactBlend& blend = ContactBlend(), const ContactPairs* detected = nullptr);
 
 }  // namespace skelform::runtime

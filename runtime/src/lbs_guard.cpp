@@ -48,6 +48,8 @@ GuardWorkspace make_guard_workspace(const ContactMesh& mesh, const AllocatorRef&
   ws.node_boxes.resize(6 * mesh.hierarchy.nodes.size());
   ws.node_flags.resize(mesh.hierarchy.nodes.size());
   ws.leaf_flags.resize(mesh.hierarchy.nodes.size());
+  ws.pair_keys.reserve(size_t(kGuardPairsPerTriangle) * triangles);
+  ws.pair_added.reserve(size_t(kGuardPairsPerTriangle) * triangles);
   return ws;
 }
 
@@ -151,6 +153,57 @@ class GuardPass {
     return true;
   }
 
+  // Keep the first round's intersecting pairs (check_exact) in ws.pair_keys.
+  void record_pairs() {
+    record_ = true;
+    ws_.pair_keys.clear();
+    ws_.pair_added.clear();
+    ws_.pairs_complete = true;
+  }
+
+  // The first round again after K moved at the welded vertices `moved` (a FirstRoundHook):
+  // the recorded pairs none of whose corners moved keep their verdicts, and the triangles
+  // around the moved vertices query the hierarchy, its node boxes grown around their new
+  // boxes. Replaces the first search's flags. False when the budget ran out.
+  bool search_after_moves(const Array<uint32_t>& moved, bool& added) {
+    record_ = false;
+    for (uint32_t v : ws_.flagged_list) ws_.flagged[v] = 0;
+    ws_.flagged_list.clear();
+    added = false;
+    for (uint32_t v : moved) ws_.changed[v] = 1;
+    for (size_t i = 0; i < ws_.pair_keys.size(); ++i) {
+      if (!ws_.pair_added[i]) continue;
+      const uint32_t* ct = tri_ + 3 * size_t(ws_.pair_keys[i] >> 32);
+      const uint32_t* cs = tri_ + 3 * size_t(uint32_t(ws_.pair_keys[i]));
+      if (ws_.changed[ct[0]] || ws_.changed[ct[1]] || ws_.changed[ct[2]] || ws_.changed[cs[0]] || ws_.changed[cs[1]] ||
+          ws_.changed[cs[2]])
+        continue;
+      flag_pair(ct, cs);
+      added = true;
+    }
+    for (uint32_t v : moved) {
+      ws_.changed[v] = 0;
+      ws_.positions[v] = blended_position(d_, mesh_, skelform_, lbs_, ws_, v);
+      ws_.moved[v] = ws_.positions[v] != lbs_.positions[rep_[v]];
+    }
+    for (uint32_t v : moved)
+      for (uint32_t k = mesh_.incident_offsets[v]; k < mesh_.incident_offsets[v + 1]; ++k) {
+        const uint32_t t = mesh_.incident[k];
+        if (ws_.tested[t]) continue;
+        ws_.tested[t] = 1;
+        ws_.test_list.push_back(t);
+        const uint32_t* c = tri_ + 3 * size_t(t);
+        float box[6];
+        triangle_box(ws_.positions[c[0]], ws_.positions[c[1]], ws_.positions[c[2]], box);
+        ws_.boxes.set(h_.slot[t], box);
+        grow_triangle_hierarchy(h_, h_.slot[t], box, ws_.node_boxes.data());
+      }
+    bool around = false;
+    const bool complete = search(1, around);
+    added |= around;
+    return complete;
+  }
+
   // Halves λ at the flagged moved corners (0 after kGuardHalvings rounds), moves them, and
   // lists the triangles around them for the next round.
   void lower(uint32_t round) {
@@ -193,15 +246,28 @@ class GuardPass {
                                        widen(x[cs[1]]), widen(x[cs[2]])))
       return;
     const glm::vec3* l = lbs_.positions;
-    if (geometry::triangles_intersect(widen(l[rep_[ct[0]]]), widen(l[rep_[ct[1]]]), widen(l[rep_[ct[2]]]),
-                                      widen(l[rep_[cs[0]]]), widen(l[rep_[cs[1]]]), widen(l[rep_[cs[2]]])))
-      return;  // LBS has this pair too
+    const bool lbs_has =
+        geometry::triangles_intersect(widen(l[rep_[ct[0]]]), widen(l[rep_[ct[1]]]), widen(l[rep_[ct[2]]]),
+                                      widen(l[rep_[cs[0]]]), widen(l[rep_[cs[1]]]), widen(l[rep_[cs[2]]]));
+    if (record_) {
+      if (ws_.pair_keys.size() < ws_.pair_keys.capacity()) {  // no allocation
+        ws_.pair_keys.push_back(uint64_t(std::min(t, s)) << 32 | std::max(t, s));
+        ws_.pair_added.push_back(lbs_has ? 0 : 1);
+      } else {
+        ws_.pairs_complete = false;
+      }
+    }
+    if (lbs_has) return;  // LBS has this pair too
+    flag_pair(ct, cs);
+    added = true;
+  }
+
+  void flag_pair(const uint32_t* ct, const uint32_t* cs) {
     for (uint32_t v : {ct[0], ct[1], ct[2], cs[0], cs[1], cs[2]})
       if (!ws_.flagged[v]) {
         ws_.flagged[v] = 1;
         ws_.flagged_list.push_back(v);  // capacity for every vertex: no allocation
       }
-    added = true;
   }
 
   const Deformable& d_;
@@ -212,6 +278,7 @@ class GuardPass {
   const uint32_t* tri_;
   const uint32_t* rep_;
   const TriangleHierarchy& h_;
+  bool record_ = false;
 };
 
 // LBS everywhere, this evaluation: every λ 0 and none corrected (so no ramp lifts one).
@@ -229,9 +296,13 @@ void fall_back_to_lbs(GuardWorkspace& ws) {
 // `only` (welded vertices, or null): the positions and boxes of the previous call are known
 // to add no pair, and only the vertices listed have moved since (towards L), so the first
 // round recomputes and tests only the triangles around those.
+//
+// `hook` (or null; only without `only`) runs after the first search (FirstRoundHook).
 void guard_intersections(const Deformable& d, const ContactMesh& mesh, const DenseOutput& skelform,
-                         const DenseOutput& lbs, GuardWorkspace& ws, const Array<uint32_t>* only = nullptr) {
+                         const DenseOutput& lbs, GuardWorkspace& ws, const Array<uint32_t>* only = nullptr,
+                         FirstRoundHook* hook = nullptr) {
   GuardPass pass(d, mesh, skelform, lbs, ws);
+  if (hook) pass.record_pairs();
   ws.test_list.clear();
   if (only) {
     pass.seed_incremental(*only);
@@ -244,9 +315,18 @@ void guard_intersections(const Deformable& d, const ContactMesh& mesh, const Den
   for (uint32_t round = 0; !ws.test_list.empty(); ++round) {
     ws.flagged_list.clear();
     bool added = false;
-    const bool complete = pass.search(round, added);
+    bool complete = pass.search(round, added);
     for (uint32_t t : ws.test_list) ws.tested[t] = 0;
     ws.test_list.clear();
+    if (complete && round == 0 && hook && ws.pairs_complete && !ws.pair_keys.empty()) {
+      const Array<uint32_t>& moved = hook->after_first_search(
+          {ws.pair_keys.data(), ws.pair_keys.size(), &mesh.hierarchy, ws.node_boxes.data(), &ws.boxes});
+      if (!moved.empty()) {
+        complete = pass.search_after_moves(moved, added);
+        for (uint32_t t : ws.test_list) ws.tested[t] = 0;
+        ws.test_list.clear();
+      }
+    }
     if (!complete) {
       for (uint32_t v : ws.flagged_list) ws.flagged[v] = 0;
       fall_back_to_lbs(ws);
@@ -364,7 +444,8 @@ double volume_share(const double v[4], double target) {
 }  // namespace
 
 void guard_and_blend(const Deformable& d, const ContactMesh& mesh, float scale, const DenseOutput& skelform,
-                     const DenseOutput& lbs, bool with_normals, const DenseOutput& out, GuardWorkspace& ws) {
+                     const DenseOutput& lbs, bool with_normals, const DenseOutput& out, GuardWorkspace& ws,
+                     FirstRoundHook* hook) {
   const float* weight = d.skelform_weight.data();
   std::fill(ws.factor.begin(), ws.factor.end(), 1.0f);
   ws.corrected_list.clear();
@@ -374,7 +455,7 @@ void guard_and_blend(const Deformable& d, const ContactMesh& mesh, float scale, 
   ws.over_budget = false;
   const bool welded = mesh.weld.size() == d.vertex_count && mesh.triangle_count >= 2;
   if (welded) {
-    guard_intersections(d, mesh, skelform, lbs, ws);
+    guard_intersections(d, mesh, skelform, lbs, ws, nullptr, hook);
     // A smooth fallback: around every vertex the guard pulled towards LBS, the factor may rise
     // by at most half of what is left per ring, over kGuardRampRings rings; the lowered factors
     // are then checked again (a vertex between K and L is not safe by itself).

@@ -72,7 +72,9 @@ struct GuardWorkspace {
         boxes(a),
         node_boxes(a),
         node_flags(a),
-        leaf_flags(a) {}
+        leaf_flags(a),
+        pair_keys(a),
+        pair_added(a) {}
   Array<float> factor;             // λ per welded vertex
   Array<glm::vec3> positions;      // x per welded vertex
   Array<uint8_t> moved;            // per welded vertex: x differs from L
@@ -89,11 +91,35 @@ struct GuardWorkspace {
   Array<float> node_boxes;         // ContactMesh::hierarchy refitted to boxes, then grown around them
   Array<uint8_t> node_flags;       // per node: it holds a triangle of the first round
   Array<LeafLanes> leaf_flags;     // per leaf node: its lanes holding one
-  PairBudget budget;               // this evaluation's candidate pairs
-  bool over_budget = false;        // the last evaluation ran out of it (and is LBS)
-  uint32_t rounds = 0;             // of the last evaluation
-  uint32_t corrected = 0;          // welded vertices with λ < 1 after the last evaluation
-  float volume_share = 1.0f;       // μ of the last evaluation
+  // The first round's intersecting pairs (s << 32 | t, s < t) and whether LBS lacks each, when a
+  // FirstRoundHook wants them; pairs_complete is false when they outnumbered the capacity
+  // (kGuardPairsPerTriangle per triangle), and the hook is then not called.
+  Array<uint64_t> pair_keys;
+  Array<uint8_t> pair_added;
+  bool pairs_complete = false;
+  PairBudget budget;          // this evaluation's candidate pairs
+  bool over_budget = false;   // the last evaluation ran out of it (and is LBS)
+  uint32_t rounds = 0;        // of the last evaluation
+  uint32_t corrected = 0;     // welded vertices with λ < 1 after the last evaluation
+  float volume_share = 1.0f;  // μ of the last evaluation
+};
+
+// Capacity of GuardWorkspace::pair_keys, per welded triangle (the corpus's frames intersect far
+// fewer: a pair per triangle would be a mesh through itself everywhere).
+constexpr uint32_t kGuardPairsPerTriangle = 1;
+
+// Work run between the guard's first search and its first lowering: the contact pass, which
+// then needs no search of its own. It gets every intersecting pair of non-adjacent triangles
+// that search found (at λ = 1, every pair with a corner off LBS), may move skelform's result K
+// at welded vertices, and returns those vertices. The guard then keeps the verdicts of the
+// pairs none of whose corners moved, and searches again only around the moved ones: the
+// guard's outcome is that of a whole first round over the moved result.
+class FirstRoundHook {
+ public:
+  virtual const Array<uint32_t>& after_first_search(const ContactPairs& pairs) = 0;
+
+ protected:
+  ~FirstRoundHook() = default;
 };
 
 // Throws std::bad_alloc.
@@ -103,7 +129,9 @@ GuardWorkspace make_guard_workspace(const ContactMesh& mesh, const AllocatorRef&
 // the evaluation computed them); `out` receives the blend, and may be `skelform` itself (each
 // vertex is written after the last read of its own K). `with_normals`: also blend normals
 // (renormalised) and tangents.
+// `hook` (or null) runs once, after the first search (FirstRoundHook).
 void guard_and_blend(const Deformable& d, const ContactMesh& mesh, float scale, const DenseOutput& skelform,
-                     const DenseOutput& lbs, bool with_normals, const DenseOutput& out, GuardWorkspace& ws);
+                     const DenseOutput& lbs, bool with_normals, const DenseOutput& out, GuardWorkspace& ws,
+                     FirstRoundHook* hook = nullptr);
 
 }  // namespace skelform::runtime

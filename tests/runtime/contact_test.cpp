@@ -4,9 +4,14 @@
 // leaves the output alone; blended with LBS, the output's tip gets the whole push and a
 // rigid one none. Through the C API: set_contacts' arguments, evaluation never
 // allocates with the pass on, and the pass is output only (turned off again, an instance gives
-// the bits of one that never had it).
+// the bits of one that never had it). Inside the LBS guard (lbs_guard.h FirstRoundHook), the
+// pass detects from the guard's first search, which lists every intersecting pair, and the
+// guard's outcome is that of a guard run afresh on the moved result, bit for bit.
 #include "contact.h"
+#include "asset.h"
 #include "brute_force_pairs.h"
+#include "instance.h"
+#include "lbs_guard.h"
 #include "runtime/runtime_models.h"
 
 #include <doctest/doctest.h>
@@ -341,4 +346,107 @@ TEST_CASE("contact: pairs that intersect at rest are the modeller's and stay") {
   const ContactStats stats = resolve_contacts(mesh, 1.0f, x.data(), uint32_t(x.size()), workspace);
   CHECK(stats.moved == 0);
   CHECK(std::memcmp(x.data(), scene.positions.data(), x.size() * sizeof(glm::vec3)) == 0);
+}
+
+namespace {
+
+// The contact pass as the evaluation runs it inside the guard (api_evaluate.cpp ContactHook),
+// keeping what the guard gave it.
+class RecordingHook final : public skelform::runtime::FirstRoundHook {
+ public:
+  RecordingHook(const ContactMesh& mesh, std::vector<glm::vec3>& k, const std::vector<glm::vec3>& l,
+                const std::vector<float>& w)
+      : mesh_(mesh), k_(k), l_(l), w_(w), workspace_(make_contact_workspace(mesh, {})) {}
+  const skelform::runtime::Array<uint32_t>& after_first_search(const skelform::runtime::ContactPairs& pairs) override {
+    keys.assign(pairs.keys, pairs.keys + pairs.count);
+    calls += 1;
+    stats = resolve_contacts(mesh_, 1.0f, k_.data(), uint32_t(k_.size()), workspace_, {l_.data(), w_.data()}, &pairs);
+    return workspace_.moved;
+  }
+  std::vector<uint64_t> keys;
+  int calls = 0;
+  ContactStats stats;
+
+ private:
+  const ContactMesh& mesh_;
+  std::vector<glm::vec3>& k_;
+  const std::vector<glm::vec3>& l_;
+  const std::vector<float>& w_;
+  ContactWorkspace workspace_;
+};
+
+}  // namespace
+
+// The tip 0.1 deep in the cube (K), which the pass takes out, and the same with the pass's move
+// capped at a hundredth of its own, which leaves it in: after the pass, the guard must drop the
+// first search's verdicts on the moved tip in the one case and find its pairs again in the other.
+TEST_CASE("contact: inside the guard, the pass detects from its search and the guard ends as if run afresh") {
+  using namespace skelform::runtime;
+  for (const float cap : {1.0f, 0.01f}) {
+    CAPTURE(cap);
+    const Scene scene(0.9f);
+    const std::vector<glm::vec3> rest = rest_of(scene);  // LBS: the tip clear of the cube
+    // Open (the cube's bottom face dropped: the octahedron's 8 triangles come first), so that the
+    // guard's volume step, which would check the result afresh, stays out of it.
+    std::vector<uint32_t> triangles = scene.triangles;
+    triangles.erase(triangles.begin() + 24, triangles.begin() + 30);
+    const uint32_t n = uint32_t(rest.size());
+    Deformable d{AllocatorRef{}};
+    d.vertex_count = n;
+    d.skelform_weight.assign(n, 1.0f);
+    PrimitiveRecord primitive;
+    primitive.vertex_count = n;
+    primitive.triangle_count = uint32_t(triangles.size() / 3);
+    primitive.has_normals = true;
+    d.primitives.push_back(primitive);
+    ContactMesh mesh = build_contact_mesh(rest.data(), n, triangles.data(), triangles.size() / 3, {});
+    REQUIRE(mesh.weld.size() == n);
+    REQUIRE(!mesh.closed);
+    mesh.cap *= cap;
+    const std::vector<float> w(n, 1.0f);
+    const std::vector<glm::vec3> normals(n, glm::vec3(0, 0, 1));
+
+    struct Result {
+      std::vector<glm::vec3> positions, normals;
+    };
+    auto guard = [&](std::vector<glm::vec3>& k, FirstRoundHook* hook) {
+      std::vector<glm::vec3> l = rest, kn = normals, ln = normals;
+      Result out{std::vector<glm::vec3>(n), std::vector<glm::vec3>(n)};
+      GuardWorkspace ws = make_guard_workspace(mesh, {});
+      guard_and_blend(d, mesh, 1.0f, DenseOutput{k.data(), kn.data(), nullptr},
+                      DenseOutput{l.data(), ln.data(), nullptr}, true,
+                      DenseOutput{out.positions.data(), out.normals.data(), nullptr}, ws, hook);
+      return out;
+    };
+
+    std::vector<glm::vec3> k = scene.positions;
+    RecordingHook hook(mesh, k, rest, w);
+    const Result inside = guard(k, &hook);
+    REQUIRE(hook.calls == 1);
+    // The guard handed over every intersecting pair at λ = 1 (here all have the moved tip as a
+    // corner), as brute force finds them.
+    std::vector<std::array<uint32_t, 3>> welded;
+    for (size_t t = 0; t < triangles.size(); t += 3)
+      welded.push_back({mesh.weld[triangles[t]], mesh.weld[triangles[t + 1]], mesh.weld[triangles[t + 2]]});
+    auto pairs_at = [&](const std::vector<glm::vec3>& x) {
+      return skelform::test::brute_force_pairs(welded,
+                                               [&](uint32_t v) { return glm::dvec3(x[mesh.representative[v]]); });
+    };
+    std::vector<uint64_t> expected;
+    for (const auto& [s, t] : pairs_at(scene.positions)) expected.push_back(uint64_t(s) << 32 | t);
+    std::vector<uint64_t> keys = hook.keys;
+    std::sort(keys.begin(), keys.end());
+    CHECK(!expected.empty());
+    CHECK(keys == expected);
+    CHECK(hook.stats.pairs_before == expected.size());
+    CHECK(hook.stats.moved > 0);  // the pass moved the tip: the guard re-searched around it
+
+    // The same guard, with no pass, on the result the pass left: the same bits.
+    std::vector<glm::vec3> moved = k;
+    const Result afresh = guard(moved, nullptr);
+    CHECK(std::memcmp(inside.positions.data(), afresh.positions.data(), n * sizeof(glm::vec3)) == 0);
+    CHECK(std::memcmp(inside.normals.data(), afresh.normals.data(), n * sizeof(glm::vec3)) == 0);
+    // Which case this is: the pass alone cleared the tip, but not with its move capped.
+    CHECK(pairs_at(k).empty() == (cap == 1.0f));
+  }
 }
