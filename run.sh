@@ -22,7 +22,7 @@
 #   ./run.sh quality [ARGS]  skelform against LBS over the whole corpus (the Quaternius characters
 #                            and Khronos samples of the data dir, and the procedural character):
 #                            builds, runs skelform-quality --check and prints its table as
-#                            Markdown (the README's); ARGS go to skelform-quality (e.g. --contacts)
+#                            Markdown (the README's); ARGS go to skelform-quality (e.g. --no-contacts)
 #   ./run.sh speed [RUNS]    the README's speed table: skelform-bench --markdown (every method
 #                            against the optimised LBS, CPU time, median of RUNS runs, default
 #                            5; needs CesiumMan in the data dir; about 30 s per run)

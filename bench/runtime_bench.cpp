@@ -5,8 +5,8 @@
 //   skelform_unfaired  the same with fairing off (SF_FAIR_OFF): the difference is the
 //               fairing's share
 //   skelform_semi_implicit  the same with the semi-implicit fairing steps (SF_FAIR_SEMI_IMPLICIT)
-//   skelform_contacts  the default evaluation with the contact pass turned on
-//               (sf_instance_set_contacts; off by default)
+//   skelform_no_contacts  the default evaluation with the contact pass turned off
+//               (sf_instance_set_contacts; on by default): the difference is the pass's share
 //   lbs_optimised  linear blend skinning as a game engine does it (bench/fast_lbs.h: AVX2/FMA
 //               when the CPU has it, positions and renormalised normals written straight
 //               into an interleaved vertex buffer): the speed baseline; at start-up it is
@@ -30,7 +30,7 @@
 //                                               of N runs, ratios against lbs_optimised)
 //   skelform-bench --json [--smoke] [--cpu] [--runs N]  one JSON line per mesh:
 //     {"mesh": name, "vertices": n, "ms": {"skelform": .., "skelform_unfaired": ..,
-//      "skelform_semi_implicit": .., "skelform_contacts": .., "lbs_optimised": ..,
+//      "skelform_semi_implicit": .., "skelform_no_contacts": .., "lbs_optimised": ..,
 //      "lbs": .., "lbs_range": .., "dqs": .., "delta_mush": ..}}
 //     each figure the median of timed evaluations, the methods taking turns frame by frame
 //     (--smoke: a handful, for CI), with --runs N the median of N such medians; wall time, or
@@ -78,7 +78,7 @@ enum class Method {
   skelform,
   skelform_unfaired,
   skelform_semi_implicit,
-  skelform_contacts,
+  skelform_no_contacts,
   lbs_optimised,
   lbs,
   lbs_range,
@@ -88,7 +88,7 @@ enum class Method {
 constexpr std::array<Method, 9> kMethods = {Method::skelform,
                                             Method::skelform_unfaired,
                                             Method::skelform_semi_implicit,
-                                            Method::skelform_contacts,
+                                            Method::skelform_no_contacts,
                                             Method::lbs_optimised,
                                             Method::lbs,
                                             Method::lbs_range,
@@ -105,8 +105,8 @@ const char* method_name(Method method) {
       return "skelform_unfaired";
     case Method::skelform_semi_implicit:
       return "skelform_semi_implicit";
-    case Method::skelform_contacts:
-      return "skelform_contacts";
+    case Method::skelform_no_contacts:
+      return "skelform_no_contacts";
     case Method::lbs_optimised:
       return "lbs_optimised";
     case Method::lbs:
@@ -250,8 +250,8 @@ class Scene {
     for (Method method : kMethods)
       if (through_api(method))
         check(sf_instance_create(model_.asset, 0, &instances_[size_t(method)]), "sf_instance_create");
-    sf_instance* contacts = instances_[static_cast<size_t>(Method::skelform_contacts)];
-    check(sf_instance_set_contacts(contacts, 1), "sf_instance_set_contacts", contacts);
+    sf_instance* contacts = instances_[static_cast<size_t>(Method::skelform_no_contacts)];
+    check(sf_instance_set_contacts(contacts, 0), "sf_instance_set_contacts", contacts);
 
     // Delta Mush on the same original vertices.
     const skelform::bake::InputMesh& input = model_.input;

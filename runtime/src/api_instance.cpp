@@ -127,6 +127,9 @@ sf_instance::sf_instance(const sf_asset& owner, const Deformable& d)
   size_joint_buffers(*this, d);
   size_control_buffers(*this, d, owner.allocator);
   size_dense_buffers(*this, d, owner.allocator);
+  // The contact pass, on by default (sf_instance_set_contacts): inside the guard it needs no grid.
+  contact = make_contact_workspace(d.welded, owner.allocator);
+  contacts_enabled = true;
 }
 
 sf_instance::~sf_instance() { handle_system_destroy(handles.system, allocator); }
@@ -239,6 +242,9 @@ sf_result sf_instance_set_handle_set(sf_instance* instance, const uint32_t* hand
     next.targets.resize(handle_count);
     for (size_t i = 0; i < handle_count; ++i) next.targets[i] = d.rest_positions[handles[i]];  // at rest
     next.displacements.resize(handle_count);
+    // The handle driver runs the contact pass on its own, without the guard: it needs its grid.
+    if (instance->contacts_enabled && !instance->contact.grid)
+      add_contact_grid(instance->deformable->welded, instance->contact);
     next.system = handle_system_create(d, handle_control.data(), handle_count, pinned_control.data(), pinned_count,
                                        instance->allocator);
     handle_system_destroy(instance->handles.system, instance->allocator);
@@ -256,8 +262,11 @@ sf_result sf_instance_set_contacts(sf_instance* instance, uint32_t enabled) {
     if (enabled > 1)
       return fail(instance, SF_ERROR_INVALID_ARGUMENT, "sf_instance_set_contacts: enabled is %u, not 0 or 1", enabled);
     if (enabled && !instance->contacts_enabled) {
-      // The pass's scratch is made here, for the instances that use it; a failure leaves it off.
-      instance->contact = make_contact_workspace(instance->deformable->welded, instance->allocator);
+      // The pass's scratch is made here again; a failure leaves it off. With a handle set, the
+      // pass runs without the guard and needs its own grid.
+      ContactWorkspace next = make_contact_workspace(instance->deformable->welded, instance->allocator);
+      if (instance->handles.system) add_contact_grid(instance->deformable->welded, next);
+      instance->contact = std::move(next);
     } else if (!enabled && instance->contacts_enabled) {
       instance->contact = ContactWorkspace(instance->allocator);  // frees the buffers
     }

@@ -401,16 +401,20 @@ ContactWorkspace make_contact_workspace(const ContactMesh& mesh, const Allocator
   ws.start.resize(mesh.vertex_count);
   ws.state.resize(mesh.vertex_count);
   ws.active.reserve(mesh.vertex_count);
-  ws.cell_offsets.resize(size_t(kCellsPerTriangle) * std::max(mesh.triangle_count, 1u) + 1);
-  ws.ranges.resize(6 * size_t(mesh.triangle_count));
-  ws.boxes.resize(6 * size_t(mesh.triangle_count));
-  ws.normals.resize(mesh.triangle_count);
   ws.stamps.assign(mesh.triangle_count, 0u);
   ws.candidates.reserve(mesh.triangle_count);
   ws.candidate_boxes.resize(6 * size_t(mesh.triangle_count));
   ws.moved.reserve(mesh.vertex_count);
-  ws.entries.resize(size_t(kEntriesPerTriangle) * mesh.triangle_count);
   return ws;
+}
+
+void add_contact_grid(const ContactMesh& mesh, ContactWorkspace& ws) {
+  ws.cell_offsets.resize(size_t(kCellsPerTriangle) * std::max(mesh.triangle_count, 1u) + 1);
+  ws.ranges.resize(6 * size_t(mesh.triangle_count));
+  ws.boxes.resize(6 * size_t(mesh.triangle_count));
+  ws.normals.resize(mesh.triangle_count);
+  ws.entries.resize(size_t(kEntriesPerTriangle) * mesh.triangle_count);
+  ws.grid = true;
 }
 
 ContactStats resolve_contacts(const ContactMesh& mesh, float scale, glm::vec3* dense_positions,
@@ -420,7 +424,9 @@ ContactStats resolve_contacts(const ContactMesh& mesh, float scale, glm::vec3* d
   ws.moved.clear();
   // The pass's lengths follow the output's scale (instance.h JointTransforms).
   const float gap = mesh.gap * scale, cap = mesh.cap * scale;
-  if (mesh.triangle_count < 2 || dense_vertex_count != mesh.weld.size() || mesh.tangled_at_rest) return stats;
+  if (mesh.triangle_count < 2 || dense_vertex_count != mesh.weld.size() || mesh.tangled_at_rest ||
+      !(detected || ws.grid))
+    return stats;
   glm::vec3* x = ws.positions.data();
   for (uint32_t w = 0; w < mesh.vertex_count; ++w) {
     const uint32_t r = mesh.representative[w];

@@ -92,14 +92,18 @@ struct ContactWorkspace {
   Array<float> candidate_boxes;  // their boxes when gathered (lo xyz, hi xyz), 6 per triangle reserved
   Array<uint32_t> moved;         // the welded vertices the last pass moved, ascending
   uint32_t stamp = 0;
+  bool grid = false;  // cell_offsets, entries, ranges, boxes and normals are sized (add_contact_grid)
   // This pass's work: every triangle pair a search or a push visits spends one. A surface
   // tangled over itself would make the pass quadratic (all boxes meeting all boxes); past
   // kContactBudgetPasses × pair_visit_budget the pass stops and moves nothing.
   PairBudget budget;
 };
 
-// Throws std::bad_alloc.
+// The scratch of the pass inside the LBS guard (a ContactPairs search). Throws std::bad_alloc.
 ContactWorkspace make_contact_workspace(const ContactMesh& mesh, const AllocatorRef& allocator);
+// Adds the pass's own grid, which it needs without a shared search (the handle driver: no LBS,
+// no guard). Throws std::bad_alloc.
+void add_contact_grid(const ContactMesh& mesh, ContactWorkspace& workspace);
 
 struct ContactStats {
   uint32_t pairs_before = 0;  // intersecting pairs found by the first detection
@@ -145,7 +149,8 @@ constexpr float kContactMinWeight = 1e-6f;
 // kContactMinWeight (rigid parts stay rigid), and writes each moved copy's K back so that its
 // blend lands where the pass put it (K = L + (x − L) / w): a vertex that takes a tenth of
 // skelform's result still gets the whole of its push. Without one, it resolves the contacts of
-// K and any vertex may move. With `detected`, its pairs are the pass's detection. Lists the
+// K and any vertex may move. With `detected`, its search stands in for the pass's grid;
+// without, the pass needs its grid (add_contact_grid) and does nothing if it has none. Lists the
 // moved welded vertices in workspace.moved.
 ContactStats resolve_contacts(const ContactMesh& mesh, float scale, glm::vec3* dense_positions,
                               uint32_t dense_vertex_count, ContactWorkspace& workspace,

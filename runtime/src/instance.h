@@ -276,8 +276,8 @@ struct sf_instance {
   bool has_previous = false;
 
   skelform::runtime::FairingState fairing;  // fair_stage.cpp
-  // The contact pass (contact.h), while sf_instance_set_contacts has it on: its scratch (empty
-  // while it is off).
+  // The contact pass (contact.h), on unless sf_instance_set_contacts turned it off: its scratch
+  // (empty while it is off; its grid only with a handle set).
   skelform::runtime::ContactWorkspace contact;
   bool contacts_enabled = false;
 

@@ -2,14 +2,14 @@
 // writes the result, with linear blend skinning beside it, as a standard glTF 2.0 GLB that any
 // glTF viewer plays (animation_glb.h describes the file; the samples' web viewer reads it).
 //
-//   skelform-animate IN.glb|IN.gltf -o OUT.glb [--fps F] [--max-frames N] [--contacts] [--quiet]
+//   skelform-animate IN.glb|IN.gltf -o OUT.glb [--fps F] [--max-frames N] [--no-contacts] [--quiet]
 //
 // An input without the SKELFORM_skeletal_deformation extension is baked in memory first, with
 // the baker library's defaults (what skelform-bake does). Then, through the C API as an engine
 // would: one instance per deformable for skelform and one for LBS, joint matrices sampled by
 // the samples' glTF helper, frames evaluated in order (incrementally; from rest on the first
-// frame of each animation), default evaluation options otherwise (with --contacts, the
-// skelform instances have the contact pass on: sf_instance_set_contacts). Failures print one line
+// frame of each animation), default evaluation options otherwise (with --no-contacts, the
+// skelform instances have the contact pass off: sf_instance_set_contacts). Failures print one line
 // "skelform-animate: error: ..." and exit non-zero (codes in --help); the output is written
 // atomically and depends only on the input and the options.
 #include "animation_glb.h"
@@ -52,7 +52,7 @@ using skelform::samples::PrimitiveFrames;
 using Clock = std::chrono::steady_clock;
 
 const char* const kUsage =
-    "usage: skelform-animate IN.glb|IN.gltf -o OUT.glb [--fps F] [--max-frames N] [--contacts] [--quiet]\n"
+    "usage: skelform-animate IN.glb|IN.gltf -o OUT.glb [--fps F] [--max-frames N] [--no-contacts] [--quiet]\n"
     "\n"
     "Plays every animation of a skinned glTF 2.0 model through the skelform runtime and writes\n"
     "a standard glTF 2.0 GLB that any glTF viewer plays: per skinned mesh, the skelform result,\n"
@@ -66,8 +66,8 @@ const char* const kUsage =
     "  --fps F             frames sampled per second of animation (default 30)\n"
     "  --max-frames N      at most N frames per animation (default 300); a longer animation\n"
     "                      is sampled at N evenly spaced times over its whole duration\n"
-    "  --contacts          skelform with the runtime's contact pass on (resolves the output's\n"
-    "                      remaining self-intersections; slower, see docs/runtime-api.md)\n"
+    "  --no-contacts       skelform with the runtime's contact pass off (it resolves the output's\n"
+    "                      remaining self-intersections; on by default, see docs/runtime-api.md)\n"
     "  -q, --quiet         no progress on stderr, no summary line\n"
     "  -h, --help          this text\n"
     "  --version           print the version\n"
@@ -83,7 +83,7 @@ struct Arguments {
   double fps = 30.0;
   size_t max_frames = 300;
   bool quiet = false;
-  bool contacts = false;
+  bool contacts = true;
 };
 
 Arguments parse_arguments(int argc, char** argv) {
@@ -100,8 +100,8 @@ Arguments parse_arguments(int argc, char** argv) {
       args.max_frames = parse_integer(arg, cursor.value(), 1, 100000);
     else if (arg == "-q" || arg == "--quiet")
       args.quiet = true;
-    else if (arg == "--contacts")
-      args.contacts = true;
+    else if (arg == "--no-contacts")
+      args.contacts = false;
     else if (cursor.is_option())
       cursor.unknown();
     else
@@ -233,7 +233,7 @@ int run(const Arguments& args) {
         fail(exit_code_of(created),
              "cannot create an instance of deformable " + std::to_string(d) + " (" + sf_result_string(created) + ")");
     }
-    if (args.contacts) c.skelform.check(sf_instance_set_contacts(c.skelform.handle, 1), "sf_instance_set_contacts");
+    if (!args.contacts) c.skelform.check(sf_instance_set_contacts(c.skelform.handle, 0), "sf_instance_set_contacts");
     c.frames.deformable = d;
     const size_t mesh = static_cast<size_t>(c.info.mesh);
     c.frames.mesh_name = "mesh " + std::to_string(mesh);

@@ -52,7 +52,7 @@ using namespace skelform::samples;
 const char* const kUsage =
     "usage: skelform-quality FILE|DIR... [--frames N] [--fps F] [--json] [--check [--waive LINE]...]\n"
     "                        [-j N] [--quiet] [--skeleton S] [--reconstruction R] [--fairing F]\n"
-    "                        [--fairing-iterations N] [--contacts]\n"
+    "                        [--fairing-iterations N] [--no-contacts]\n"
     "\n"
     "Plays every animation of skinned glTF 2.0 models through skelform and through linear\n"
     "blend skinning (LBS) and prints, per character and animation, against the bind pose in\n"
@@ -78,7 +78,8 @@ const char* const kUsage =
     "  --reconstruction R  carried (default) or paper (the homotopy of eqs. (2), (3))\n"
     "  --fairing F    on (default), off, folds (flow (4) only) or intersections (flow (5) only)\n"
     "  --fairing-iterations N  fairing iterations per incremental evaluation (default 1)\n"
-    "  --contacts     skelform with the runtime's contact pass on (sf_instance_set_contacts)\n"
+    "  --no-contacts  skelform with the runtime's contact pass off (sf_instance_set_contacts;\n"
+    "                 on by default)\n"
     "  --waive LINE   with --check: report acceptance line LINE (worse-frames, pair-share,\n"
     "                 volume, rigid, rest, bind, refused) without failing on it (repeatable)\n"
     "  -j N           files measured in parallel (default: the number of cores)\n"
@@ -105,7 +106,7 @@ struct Arguments {
   bool quiet = false;
   unsigned jobs = 0;
   sf_eval_options options{};        // skelform's evaluation options (--skeleton, --reconstruction, --fairing)
-  bool contacts = false;            // skelform with the contact pass on
+  bool contacts = true;             // skelform with the contact pass on (the default)
   std::vector<std::string> waived;  // acceptance lines --check reports but does not enforce
 };
 
@@ -135,8 +136,8 @@ Arguments parse_arguments(int argc, char** argv) {
           kFairings[parse_choice(arg, cursor.value(), {"on", "off", "folds", "intersections"})];
     } else if (arg == "--fairing-iterations") {
       args.options.fairing_iterations = uint32_t(parse_integer(arg, cursor.value(), 1, 1000));
-    } else if (arg == "--contacts")
-      args.contacts = true;
+    } else if (arg == "--no-contacts")
+      args.contacts = false;
     else if (arg == "--waive") {
       const std::string line = cursor.value();
       if (std::find_if(std::begin(kLines), std::end(kLines), [&](const char* l) { return line == l; }) ==
@@ -336,7 +337,7 @@ FileResult measure_file(const std::string& path, const Arguments& args) {
         if (created != SF_OK)
           fail(exit_code_of(created), std::string("sf_instance_create: ") + sf_result_string(created));
       }
-      if (args.contacts) c.skelform.check(sf_instance_set_contacts(c.skelform.handle, 1), "sf_instance_set_contacts");
+      if (!args.contacts) c.skelform.check(sf_instance_set_contacts(c.skelform.handle, 0), "sf_instance_set_contacts");
       std::vector<float> stored(3 * size_t{c.info.vertex_count});
       std::vector<uint32_t> triangles;
       for (uint32_t p = 0; p < c.info.primitive_count; ++p) {

@@ -30,6 +30,15 @@ using skelform::runtime::ContactMesh;
 using skelform::runtime::ContactStats;
 using skelform::runtime::ContactWorkspace;
 using skelform::runtime::make_contact_workspace;
+
+namespace {
+// The pass's scratch with its own grid, as it runs outside the guard (the handle driver).
+ContactWorkspace make_grid_workspace(const ContactMesh& mesh) {
+  ContactWorkspace workspace = make_contact_workspace(mesh, {});
+  skelform::runtime::add_contact_grid(mesh, workspace);
+  return workspace;
+}
+}  // namespace
 using skelform::runtime::resolve_contacts;
 
 namespace {
@@ -104,7 +113,7 @@ struct Pass {
       : rest(rest_of(scene)),
         mesh(build_contact_mesh(rest.data(), uint32_t(rest.size()), scene.triangles.data(), scene.triangles.size() / 3,
                                 {})),
-        workspace(make_contact_workspace(mesh, {})) {}
+        workspace(make_grid_workspace(mesh)) {}
   ContactStats run(std::vector<glm::vec3>& x) {
     return resolve_contacts(mesh, 1.0f, x.data(), uint32_t(x.size()), workspace);
   }
@@ -214,7 +223,7 @@ TEST_CASE("contact: a mesh of very unequal triangles is bucketed whole, and its 
   const ContactMesh mesh =
       build_contact_mesh(rest.data(), uint32_t(rest.size()), triangles.data(), triangles.size() / 3, {});
   REQUIRE(mesh.rest_pairs.empty());
-  ContactWorkspace workspace = make_contact_workspace(mesh, {});
+  ContactWorkspace workspace = make_grid_workspace(mesh);
   // The first small triangle moved onto the second and through it, tilted and facing up.
   std::vector<glm::vec3> x = rest;
   const uint32_t moved = 18, into = 21;
@@ -316,20 +325,40 @@ TEST_CASE("contact: sf_instance_set_contacts - arguments; the pass is output onl
   CHECK(sf_instance_set_contacts(nullptr, 1) == SF_ERROR_INVALID_ARGUMENT);
   CHECK(sf_instance_set_contacts(with, 2) == SF_ERROR_INVALID_ARGUMENT);
   CHECK(std::strstr(sf_instance_last_error(with), "not 0 or 1") != nullptr);
-  REQUIRE(sf_instance_set_contacts(with, 1) == SF_OK);
+  REQUIRE(sf_instance_set_contacts(with, 1) == SF_OK);  // on by default: no change
   REQUIRE(sf_instance_set_contacts(with, 1) == SF_OK);  // again: no change
-  // Off again: the next evaluation equals the one of the instance that never had the pass,
-  // bit for bit (the pass never fed the fairing's warm start).
+  // Off: the next evaluation equals the one of an instance turned off from the start, bit for
+  // bit (the pass never fed the fairing's warm start); on again, it equals a fresh instance's.
+  REQUIRE(sf_instance_set_contacts(without, 0) == SF_OK);
   REQUIRE(sf_instance_set_contacts(with, 0) == SF_OK);
   const std::vector<glm::mat4> pose = skelform::test::bend_pose(model, 1, 2.3f, glm::vec3(1, 0, 0));
-  for (sf_instance* i : {with, without}) {
+  auto evaluate = [&](sf_instance* i) {
     REQUIRE(sf_instance_set_joint_matrices(i, &pose[0][0][0], pose.size(), 0) == SF_OK);
     REQUIRE(sf_instance_evaluate(i, nullptr) == SF_OK);
-  }
-  const skelform::test::Evaluated a = skelform::test::write_all(with, model.asset);
-  const skelform::test::Evaluated b = skelform::test::write_all(without, model.asset);
-  CHECK(std::memcmp(a.positions.data(), b.positions.data(), a.positions.size() * sizeof(glm::vec3)) == 0);
-  CHECK(std::memcmp(a.normals.data(), b.normals.data(), a.normals.size() * sizeof(glm::vec3)) == 0);
+    return skelform::test::write_all(i, model.asset);
+  };
+  auto same = [](const skelform::test::Evaluated& a, const skelform::test::Evaluated& b) {
+    return std::memcmp(a.positions.data(), b.positions.data(), a.positions.size() * sizeof(glm::vec3)) == 0 &&
+           std::memcmp(a.normals.data(), b.normals.data(), a.normals.size() * sizeof(glm::vec3)) == 0;
+  };
+  CHECK(same(evaluate(with), evaluate(without)));
+  sf_instance* fresh = nullptr;
+  REQUIRE(sf_instance_create(model.asset, 0, &fresh) == SF_OK);
+  REQUIRE(sf_instance_set_contacts(with, 1) == SF_OK);
+  REQUIRE(sf_instance_set_contacts(without, 1) == SF_OK);
+  const skelform::test::Evaluated on = evaluate(fresh);
+  CHECK(same(evaluate(with), on));
+  CHECK(same(evaluate(without), on));
+  // The pass's own grid exists only where it runs without the guard: with a handle set.
+  CHECK(!fresh->contact.grid);
+  uint32_t handle = 0;
+  REQUIRE(sf_instance_set_handle_set(fresh, &handle, 1, nullptr, 0) == SF_OK);
+  CHECK(fresh->contact.grid);
+  REQUIRE(sf_instance_set_contacts(fresh, 0) == SF_OK);
+  CHECK(fresh->contact.entries.empty());
+  REQUIRE(sf_instance_set_contacts(fresh, 1) == SF_OK);
+  CHECK(fresh->contact.grid);
+  sf_instance_destroy(fresh);
   sf_instance_destroy(with);
   sf_instance_destroy(without);
 }
@@ -342,7 +371,7 @@ TEST_CASE("contact: pairs that intersect at rest are the modeller's and stay") {
                                         scene.triangles.data(), scene.triangles.size() / 3, {});
   REQUIRE(scene.pairs(x) > 0);
   CHECK(mesh.rest_pairs.size() == scene.pairs(x));
-  ContactWorkspace workspace = make_contact_workspace(mesh, {});
+  ContactWorkspace workspace = make_grid_workspace(mesh);
   const ContactStats stats = resolve_contacts(mesh, 1.0f, x.data(), uint32_t(x.size()), workspace);
   CHECK(stats.moved == 0);
   CHECK(std::memcmp(x.data(), scene.positions.data(), x.size() * sizeof(glm::vec3)) == 0);

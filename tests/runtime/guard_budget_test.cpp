@@ -118,6 +118,7 @@ TEST_CASE("contact mesh: the rest pairs are found within the budget, and a mesh 
     CHECK(mesh.tangled_at_rest);
     CHECK(mesh.rest_pairs.empty());
     ContactWorkspace ws = make_contact_workspace(mesh, AllocatorRef{});
+    add_contact_grid(mesh, ws);
     std::vector<glm::vec3> positions = tangle.thrown;
     const ContactStats stats = resolve_contacts(mesh, 1.0f, positions.data(), uint32_t(positions.size()), ws);
     CHECK(stats.moved == 0);
@@ -130,6 +131,7 @@ TEST_CASE("contact pass: a tangle beyond the work budget stops and leaves the ou
   const Tangle tangle(count);  // not tangled at rest: its rest pairs are found, none
   REQUIRE(!tangle.mesh.tangled_at_rest);
   ContactWorkspace ws = make_contact_workspace(tangle.mesh, AllocatorRef{});
+  add_contact_grid(tangle.mesh, ws);
   std::vector<glm::vec3> positions = tangle.thrown;
   const ContactStats stats = resolve_contacts(tangle.mesh, 1.0f, positions.data(), uint32_t(positions.size()), ws);
   CHECK(stats.over_budget);

@@ -47,11 +47,12 @@ node -e '
   process.exitCode = bin(process.argv[1]).equals(bin(process.argv[2])) ? 0 : 1;' \
   "$WORK/baked.anim.glb" "$WORK/character.anim.glb" || fail "a baked input gives other frames than baking in memory"
 
-# --contacts: the same contract (the LBS half is the same bits; the skelform half may differ
+# --no-contacts: the same contract (the LBS half is the same bits; the skelform half may differ
 # only where the contact pass moved vertices), deterministic, valid.
-"$ANIMATE" -q "$WORK/character.glb" -o "$WORK/contacts.anim.glb" --contacts --max-frames 8 || fail "--contacts"
-"$ANIMATE" -q "$WORK/character.glb" -o "$WORK/contacts.again.glb" --contacts --max-frames 8 || fail "--contacts (second run)"
-cmp -s "$WORK/contacts.anim.glb" "$WORK/contacts.again.glb" || fail "skelform-animate --contacts is not deterministic"
+"$ANIMATE" -q "$WORK/character.glb" -o "$WORK/contacts.anim.glb" --no-contacts --max-frames 8 || fail "--no-contacts"
+"$ANIMATE" -q "$WORK/character.glb" -o "$WORK/contacts.again.glb" --no-contacts --max-frames 8 ||
+  fail "--no-contacts (second run)"
+cmp -s "$WORK/contacts.anim.glb" "$WORK/contacts.again.glb" || fail "skelform-animate --no-contacts is not deterministic"
 node "$CHECK" "$WORK/contacts.anim.glb" --frames 8,8 >/dev/null || fail "contacts.anim.glb breaks the contract"
 validate "$WORK/contacts.anim.glb"
 

@@ -276,19 +276,20 @@ SF_API sf_result sf_instance_set_handle_set(sf_instance* instance, const uint32_
 SF_API sf_result sf_instance_set_handle_targets(sf_instance* instance, const float* targets, size_t count,
                                                 size_t stride_bytes);
 
-/* The contact pass (off by default; docs/runtime-api.md "Contact pass"). When on, every
- * SF_METHOD_SKELFORM evaluation runs it before the guards against LBS (sf_instance_evaluate),
- * on the dense mesh as the output shows it (skelform's result blended with LBS by the skelform
- * weight; skelform's own result under the handle driver): the remaining self-intersections are
- * found on it (welded by rest position) and the vertices skelform may move (under joint
- * matrices: every copy's skelform weight at least 1e-6; under handles: all) moved out of each other,
- * each move kept only where the number of intersecting triangle pairs around the vertex does
- * not grow. It costs a broad phase over every dense triangle per
- * evaluation, which is why it is opt-in; its work is bounded, linear in the triangles, and a
- * surface tangled over itself beyond that bound is left as skelform made it (the guards still
- * apply). It never feeds the fairing's warm start. Turning it
- * on allocates the pass's scratch; turning it off frees it. Normals and tangents are left as
- * the displacement computed them. `enabled` is 0 or 1. */
+/* The contact pass (on by default; docs/runtime-api.md "Contact pass"). When on, every
+ * SF_METHOD_SKELFORM evaluation runs it on the dense mesh as the output shows it (skelform's
+ * result blended with LBS by the skelform weight; skelform's own result under the handle
+ * driver): the remaining self-intersections are found on it (welded by rest position) and the
+ * vertices skelform may move (under joint matrices: every copy's skelform weight at least
+ * 1e-6; under handles: all) moved out of each other, each move kept only where the number of
+ * intersecting triangle pairs around the vertex does not grow. Under joint matrices it runs
+ * inside the guard against LBS (sf_instance_evaluate), on the intersecting pairs the guard's
+ * first search finds anyway, so it costs only its moves; under handles, where there is no
+ * guard, it runs its own broad phase over every dense triangle. Its work is bounded, linear in
+ * the triangles, and a surface tangled over itself beyond that bound is left as skelform made
+ * it (the guards still apply). It never feeds the fairing's warm start. Turning it off frees
+ * the pass's scratch; turning it on again allocates it. Normals and tangents are left as the
+ * displacement computed them. `enabled` is 0 or 1. */
 SF_API sf_result sf_instance_set_contacts(sf_instance* instance, uint32_t enabled);
 
 /* ---------------------------------------------------------------------------------------- */
