@@ -72,7 +72,9 @@ struct Deformable {
         arc_vertices(a),
         fairing_topology(a),
         fairing_rest(a),
-        welded(a) {}
+        welded(a),
+        anchor_vertices(a),
+        anchor_hosts(a) {}
 
   int32_t mesh = -1;
   int32_t node = -1;
@@ -177,6 +179,11 @@ struct Deformable {
   // The dense mesh welded by rest position (contact.h), derived at load: the LBS guard
   // (lbs_guard.h) and the contact pass read its triangles.
   ContactMesh welded;
+  // Junction anchors (lbs_guard.h anchor_junctions), derived at load (asset_derive.h): the dense
+  // vertices skelform may move whose triangle crosses another as modelled, and per such vertex
+  // the dense vertex whose skin it follows (its host: a vertex of the other triangle).
+  Array<uint32_t> anchor_vertices;
+  Array<uint32_t> anchor_hosts;
 };
 
 }  // namespace skelform::runtime

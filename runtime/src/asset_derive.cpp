@@ -175,4 +175,77 @@ void derive_fairing_data(Deformable& deformable, const AllocatorRef& allocator) 
                         deformable.medial_radius.data(), deformable.control_positions.data(), 0, scratch, allocator);
 }
 
+void derive_junction_anchors(Deformable& d) {
+  const ContactMesh& mesh = d.welded;
+  if (d.influences == 0 || d.joint_count == 0 || mesh.weld.size() != d.vertex_count || mesh.rest_pairs.empty()) return;
+  constexpr uint32_t kNone = std::numeric_limits<uint32_t>::max(), kMixed = kNone - 1;
+  // Per welded vertex: the joint all its copies follow alone (skelform weight 0, one dominant
+  // joint), kMixed if they do not; and whether every copy may move (weight >= kContactMinWeight).
+  std::vector<uint32_t> rigid_joint(mesh.vertex_count, kNone);
+  std::vector<uint8_t> movable(mesh.vertex_count, 1);
+  for (uint32_t i = 0; i < d.vertex_count; ++i) {
+    const uint32_t v = mesh.weld[i];
+    const float w = d.skelform_weight[i];
+    if (!(w >= kContactMinWeight)) movable[v] = 0;
+    uint32_t joint = kMixed;
+    if (w == 0.0f) {
+      const uint16_t* joints = d.dense_joints.data() + size_t{i} * d.influences;
+      const float* weights = d.dense_weights.data() + size_t{i} * d.influences;
+      float largest = 0.0f;
+      for (uint32_t k = 0; k < d.influences; ++k)
+        if (weights[k] > largest) largest = weights[k], joint = joints[k];
+    }
+    rigid_joint[v] = rigid_joint[v] == kNone || rigid_joint[v] == joint ? joint : kMixed;
+  }
+  auto rigid = [&](uint32_t t) {
+    const uint32_t* c = mesh.triangles.data() + 3 * size_t{t};
+    const uint32_t j = rigid_joint[c[0]];
+    return j < kMixed && rigid_joint[c[1]] == j && rigid_joint[c[2]] == j;
+  };
+  // Parts: connected pieces of the welded mesh (union-find over the triangles' corners).
+  std::vector<uint32_t> root(mesh.vertex_count);
+  for (uint32_t v = 0; v < mesh.vertex_count; ++v) root[v] = v;
+  auto find = [&](uint32_t v) {
+    while (root[v] != v) v = root[v] = root[root[v]];
+    return v;
+  };
+  for (uint32_t t = 0; t < mesh.triangle_count; ++t)
+    for (int k = 1; k < 3; ++k) {
+      const uint32_t a = find(mesh.triangles[3 * size_t{t}]), b = find(mesh.triangles[3 * size_t{t} + size_t(k)]);
+      if (a != b) root[std::max(a, b)] = std::min(a, b);
+    }
+  std::vector<uint32_t> part_size(mesh.vertex_count, 0);
+  for (uint32_t t = 0; t < mesh.triangle_count; ++t) ++part_size[find(mesh.triangles[3 * size_t{t}])];
+  auto size_of = [&](uint32_t t) { return part_size[find(mesh.triangles[3 * size_t{t}])]; };
+  // Per welded vertex: the welded vertex whose skin it follows (its host): the first rigid one
+  // met, else the first.
+  std::vector<uint32_t> host(mesh.vertex_count, kNone);
+  std::vector<uint8_t> host_rigid(mesh.vertex_count, 0);
+  auto attach = [&](uint32_t guest, uint32_t by, bool by_rigid) {
+    const uint32_t h = mesh.triangles[3 * size_t{by}];
+    for (int k = 0; k < 3; ++k) {
+      const uint32_t v = mesh.triangles[3 * size_t{guest} + size_t(k)];
+      if (!movable[v] || (host[v] != kNone && (host_rigid[v] || !by_rigid))) continue;
+      host[v] = h;
+      host_rigid[v] = by_rigid;
+    }
+  };
+  for (uint64_t key : mesh.rest_pairs) {
+    const uint32_t s = uint32_t(key >> 32), t = uint32_t(key);
+    const bool rs = rigid(s), rt = rigid(t);
+    if (rs && rt) continue;
+    // The rigid side hosts; else the larger part (a leg pushed into a body follows the body).
+    const bool s_hosts = rs || (!rt && size_of(s) > size_of(t));
+    const bool t_hosts = rt || (!rs && size_of(t) > size_of(s));
+    if (s_hosts) attach(t, s, rs);
+    if (t_hosts) attach(s, t, rt);
+  }
+  for (uint32_t i = 0; i < d.vertex_count; ++i) {
+    const uint32_t h = host[mesh.weld[i]];
+    if (h >= kMixed) continue;
+    d.anchor_vertices.push_back(i);
+    d.anchor_hosts.push_back(mesh.representative[h]);
+  }
+}
+
 }  // namespace skelform::runtime::loader

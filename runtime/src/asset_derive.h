@@ -18,4 +18,13 @@ void derive_rest_data(Deformable& deformable);
 // The fairing's connectivity and rest values (fair.h), once per deformable.
 void derive_fairing_data(Deformable& deformable, const AllocatorRef& allocator);
 
+// The junction anchors (Deformable::anchor_vertices), from the welded mesh's rest pairs (after
+// build_contact_mesh): for each pair of triangles that intersects as modelled, the corners of
+// one that skelform may move (every copy's skelform weight ≥ kContactMinWeight) follow a
+// vertex of the other: the triangle whose corners one joint carries alone hosts (a rigid part
+// cannot move), else the one in the larger connected part (a leg pushed into a body follows
+// the body); a vertex met by several keeps its first rigid host, else its first. Pairs of two
+// rigid triangles have nothing to anchor.
+void derive_junction_anchors(Deformable& deformable);
+
 }  // namespace skelform::runtime::loader

@@ -148,6 +148,7 @@ sf_asset* load_asset(const unsigned char* bytes, size_t size, const std::string&
     deformable.welded =
         build_contact_mesh(deformable.rest_positions.data(), deformable.vertex_count, deformable.dense_triangles.data(),
                            deformable.dense_triangles.size() / 3, allocator);
+    derive_junction_anchors(deformable);
   }
   return asset.release();
 }

@@ -249,15 +249,17 @@ class GuardPass {
     const bool lbs_has =
         geometry::triangles_intersect(widen(l[rep_[ct[0]]]), widen(l[rep_[ct[1]]]), widen(l[rep_[ct[2]]]),
                                       widen(l[rep_[cs[0]]]), widen(l[rep_[cs[1]]]), widen(l[rep_[cs[2]]]));
+    const uint64_t key = uint64_t(std::min(t, s)) << 32 | std::max(t, s);
+    const bool allowed = lbs_has || std::binary_search(mesh_.rest_pairs.begin(), mesh_.rest_pairs.end(), key);
     if (record_) {
       if (ws_.pair_keys.size() < ws_.pair_keys.capacity()) {  // no allocation
-        ws_.pair_keys.push_back(uint64_t(std::min(t, s)) << 32 | std::max(t, s));
-        ws_.pair_added.push_back(lbs_has ? 0 : 1);
+        ws_.pair_keys.push_back(key);
+        ws_.pair_added.push_back(allowed ? 0 : 1);
       } else {
         ws_.pairs_complete = false;
       }
     }
-    if (lbs_has) return;  // LBS has this pair too
+    if (allowed) return;  // LBS has this pair too, or the model as made
     flag_pair(ct, cs);
     added = true;
   }
@@ -442,6 +444,25 @@ double volume_share(const double v[4], double target) {
 }
 
 }  // namespace
+
+void anchor_junctions(const Deformable& d, const glm::mat4* matrices, const glm::vec3* lbs, glm::vec3* skelform) {
+  for (size_t k = 0; k < d.anchor_vertices.size(); ++k) {
+    const uint32_t i = d.anchor_vertices[k], h = d.anchor_hosts[k];
+    const uint16_t* joints = d.dense_joints.data() + size_t{h} * d.influences;
+    const float* weights = d.dense_weights.data() + size_t{h} * d.influences;
+    glm::mat4 m(0.0f);
+    float total = 0.0f;
+    for (uint32_t j = 0; j < d.influences; ++j)
+      if (weights[j] > 0.0f) {
+        m += weights[j] * matrices[joints[j]];
+        total += weights[j];
+      }
+    if (!(total > 0.0f)) continue;
+    const glm::vec3 anchored = glm::vec3(m * glm::vec4(d.rest_positions[i], 1.0f)) / total;
+    // The contact pass's write-back (contact.h): w ≥ kContactMinWeight here (derive_junction_anchors).
+    skelform[i] = lbs[i] + (anchored - lbs[i]) / d.skelform_weight[i];
+  }
+}
 
 void guard_and_blend(const Deformable& d, const ContactMesh& mesh, float scale, const DenseOutput& skelform,
                      const DenseOutput& lbs, bool with_normals, const DenseOutput& out, GuardWorkspace& ws,

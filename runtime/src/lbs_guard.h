@@ -7,11 +7,13 @@
 // blend zones) and λ_v ∈ [0, 1] the guard's factor, per welded vertex. The guard starts from
 // λ = 1 and looks for intersecting pairs of non-adjacent triangles of x that involve a
 // triangle moved off LBS (a pair of unmoved triangles is LBS's own pair). A pair that LBS
-// does not have (the same two triangles tested at L) halves λ at its moved corners, and the
-// search repeats; after kGuardHalvings rounds such corners fall to λ = 0 (exactly LBS). It
-// ends when no such pair is left, which it must: a pair whose corners are all at λ = 0 is
-// LBS's. So every frame's intersecting pairs are a subset of LBS's: skelform never adds a
-// self-intersection to what LBS gives, on any character, in any pose. Where skelform does not
+// does not have (the same two triangles tested at L), and that does not intersect at rest
+// either (ContactMesh::rest_pairs: parts modelled through each other), halves λ at its moved
+// corners, and the search repeats; after kGuardHalvings rounds such corners fall to λ = 0
+// (exactly LBS). It ends when no such pair is left, which it must: a pair whose corners are
+// all at λ = 0 is LBS's. So every frame's intersecting pairs are a subset of LBS's and the
+// model's: skelform never adds a self-intersection to what LBS gives over the bind pose, on
+// any character, in any pose. Where skelform does not
 // add one (nearly everywhere), λ stays 1 and its result is kept whole. The fallback is made
 // smooth: around a corrected vertex λ rises back to 1 over kGuardRampRings rings (each at most
 // half-way from its neighbours' smallest to 1), and the lowered factors are checked again.
@@ -40,6 +42,7 @@
 #include "memory.h"
 #include "triangle_bvh.h"
 
+#include <glm/mat4x4.hpp>
 #include <glm/vec3.hpp>
 #include <glm/vec4.hpp>
 
@@ -129,6 +132,11 @@ GuardWorkspace make_guard_workspace(const ContactMesh& mesh, const AllocatorRef&
 // the evaluation computed them); `out` receives the blend, and may be `skelform` itself (each
 // vertex is written after the last read of its own K). `with_normals`: also blend normals
 // (renormalised) and tangents.
+// Junction anchors (Deformable::anchor_vertices): sets skelform's result K at each anchored
+// dense vertex so that its output before the guard, L + w·(K − L), is its rest position under
+// its host's skin (the caller's `matrices` blended by the host vertex's weights). `lbs` is L.
+void anchor_junctions(const Deformable& d, const glm::mat4* matrices, const glm::vec3* lbs, glm::vec3* skelform);
+
 // `hook` (or null) runs once, after the first search (FirstRoundHook).
 void guard_and_blend(const Deformable& d, const ContactMesh& mesh, float scale, const DenseOutput& skelform,
                      const DenseOutput& lbs, bool with_normals, const DenseOutput& out, GuardWorkspace& ws,

@@ -4,11 +4,13 @@
 // leaves the output alone; blended with LBS, the output's tip gets the whole push and a
 // rigid one none. Through the C API: set_contacts' arguments, evaluation never
 // allocates with the pass on, and the pass is output only (turned off again, an instance gives
-// the bits of one that never had it). Inside the LBS guard (lbs_guard.h FirstRoundHook), the
+// the bits of one that never had it). A blended part modelled into a rigid one follows it where
+// they cross (junction anchors), and the guard keeps the pairs the model has. Inside the LBS guard (lbs_guard.h FirstRoundHook), the
 // pass detects from the guard's first search, which lists every intersecting pair, and the
 // guard's outcome is that of a guard run afresh on the moved result, bit for bit.
 #include "contact.h"
 #include "asset.h"
+#include "asset_derive.h"
 #include "brute_force_pairs.h"
 #include "instance.h"
 #include "lbs_guard.h"
@@ -16,6 +18,7 @@
 
 #include <doctest/doctest.h>
 #include <glm/geometric.hpp>
+#include <glm/gtc/matrix_transform.hpp>
 
 #include <algorithm>
 #include <array>
@@ -478,4 +481,73 @@ TEST_CASE("contact: inside the guard, the pass detects from its search and the g
     // Which case this is: the pass alone cleared the tip, but not with its move capped.
     CHECK(pairs_at(k).empty() == (cap == 1.0f));
   }
+}
+
+// Junction anchors (lbs_guard.h anchor_junctions): the scene's octahedron, blended between two
+// joints, is modelled with its tip 0.1 deep in the cube, which one joint carries rigidly. The
+// second joint lifts the octahedron: LBS takes the tip half-way out of the cube, which slides the
+// curve where the two cross over other triangles. Anchored, the tip's triangles follow the cube,
+// so the pairs the model has at rest stay those pairs, and the guard lets them be.
+TEST_CASE("contact: a blended part modelled into a rigid one keeps its crossing with it") {
+  using namespace skelform::runtime;
+  const Scene scene(0.9f);
+  const std::vector<glm::vec3>& rest = scene.positions;
+  const uint32_t n = uint32_t(rest.size());
+  // Open (the cube's bottom face dropped), so that the guard's volume step stays out of it: the
+  // anchors stretch the octahedron, which changes its volume where LBS keeps it.
+  std::vector<uint32_t> triangles = scene.triangles;
+  triangles.erase(triangles.begin() + 24, triangles.begin() + 30);
+  Deformable d{AllocatorRef{}};
+  d.vertex_count = n;
+  d.joint_count = 2;
+  d.influences = 4;
+  d.rest_positions.assign(rest.begin(), rest.end());
+  d.dense_triangles.assign(triangles.begin(), triangles.end());
+  d.dense_joints.assign(4 * size_t{n}, 0);
+  d.dense_weights.assign(4 * size_t{n}, 0.0f);
+  for (uint32_t v = 0; v < n; ++v) {
+    const bool octahedron = v < 6;
+    d.dense_joints[4 * v + 1] = 1;
+    d.dense_weights[4 * v] = octahedron ? 0.5f : 1.0f;
+    d.dense_weights[4 * v + 1] = octahedron ? 0.5f : 0.0f;
+    d.skelform_weight.push_back(octahedron ? 1.0f : 0.0f);
+  }
+  PrimitiveRecord primitive;
+  primitive.vertex_count = n;
+  primitive.triangle_count = uint32_t(triangles.size() / 3);
+  primitive.has_normals = true;
+  d.primitives.push_back(primitive);
+  d.welded = build_contact_mesh(rest.data(), n, triangles.data(), triangles.size() / 3, {});
+  REQUIRE(!d.welded.rest_pairs.empty());
+  REQUIRE(!d.welded.closed);
+  loader::derive_junction_anchors(d);
+  // The tip (vertex 0) and its ring cross the cube's top face: they follow a cube vertex.
+  REQUIRE(!d.anchor_vertices.empty());
+  CHECK(d.anchor_vertices[0] == 0);
+  for (size_t k = 0; k < d.anchor_vertices.size(); ++k) {
+    CHECK(d.anchor_vertices[k] < 6);
+    CHECK(d.anchor_hosts[k] >= 6);
+  }
+
+  const glm::mat4 matrices[2] = {glm::mat4(1.0f), glm::translate(glm::mat4(1.0f), glm::vec3(0.0f, 0.0f, 1.0f))};
+  std::vector<glm::vec3> l(n), k(n);
+  for (uint32_t v = 0; v < n; ++v) {
+    glm::mat4 m(0.0f);
+    for (uint32_t j = 0; j < 2; ++j) m += d.dense_weights[4 * v + j] * matrices[d.dense_joints[4 * v + j]];
+    l[v] = k[v] = glm::vec3(m * glm::vec4(rest[v], 1.0f));  // skelform's own result: LBS here
+  }
+  anchor_junctions(d, matrices, l.data(), k.data());
+  std::vector<uint8_t> anchored(n, 0);
+  for (uint32_t v : d.anchor_vertices) anchored[v] = 1;
+  for (uint32_t v = 0; v < n; ++v) CHECK(glm::length(k[v] - (anchored[v] ? rest[v] : l[v])) < 1e-6f);
+
+  const std::vector<glm::vec3> normals(n, glm::vec3(0, 0, 1));
+  std::vector<glm::vec3> kn = normals, ln = normals, out(n), on(n);
+  GuardWorkspace ws = make_guard_workspace(d.welded, {});
+  guard_and_blend(d, d.welded, 1.0f, DenseOutput{k.data(), kn.data(), nullptr},
+                  DenseOutput{l.data(), ln.data(), nullptr}, true, DenseOutput{out.data(), on.data(), nullptr}, ws);
+  // The crossing is the model's: the guard keeps the anchors (LBS has no pair there).
+  CHECK(scene.pairs(l) == 0);
+  CHECK(scene.pairs(out) == scene.pairs(rest));
+  for (uint32_t v = 0; v < n; ++v) CHECK(glm::length(out[v] - k[v]) < 1e-6f);
 }
