@@ -24,7 +24,8 @@ void derive_fairing_data(Deformable& deformable, const AllocatorRef& allocator);
 // vertex of the other: the triangle whose corners one joint carries alone hosts (a rigid part
 // cannot move), else the one in the larger connected part (a leg pushed into a body follows
 // the body); a vertex met by several keeps its first rigid host, else its first. Pairs of two
-// rigid triangles have nothing to anchor.
+// rigid triangles have nothing to anchor; pairs of two blended triangles in one part, or in
+// parts of one size, have no host.
 void derive_junction_anchors(Deformable& deformable);
 
 }  // namespace skelform::runtime::loader

@@ -144,14 +144,17 @@ class GuardPass {
       const bool complete = query_triangle_hierarchy(h_, ws_.node_boxes.data(), ws_.boxes, bt, [&](uint32_t s) {
         // Each pair once: two triangles of this round's list meet when the larger queries.
         if (s == t || (ws_.tested[s] && s > t)) return true;
+        if (share_corner(tri_ + 3 * size_t(t), tri_ + 3 * size_t(s))) return true;  // as the first round's kernel
         if (!spend()) return false;
-        if (!share_corner(tri_ + 3 * size_t(t), tri_ + 3 * size_t(s))) check_exact(t, s, added);
+        check_exact(t, s, added);
         return true;
       });
       if (!complete) return false;
     }
     return true;
   }
+
+  void stop_recording() { record_ = false; }
 
   // Keep the first round's intersecting pairs (check_exact) in ws.pair_keys.
   void record_pairs() {
@@ -165,8 +168,11 @@ class GuardPass {
   // the recorded pairs none of whose corners moved keep their verdicts, and the triangles
   // around the moved vertices query the hierarchy, its node boxes grown around their new
   // boxes. Replaces the first search's flags. False when the budget ran out.
+  // It has its own allowance of the work budget (the first search's spent), so that the pass
+  // does not push an evaluation over the budget that a guard afresh would stay within.
   bool search_after_moves(const Array<uint32_t>& moved, bool& added) {
     record_ = false;
+    ws_.budget = PairBudget(mesh_.triangle_count);
     for (uint32_t v : ws_.flagged_list) ws_.flagged[v] = 0;
     ws_.flagged_list.clear();
     added = false;
@@ -245,21 +251,22 @@ class GuardPass {
     if (!geometry::triangles_intersect(widen(x[ct[0]]), widen(x[ct[1]]), widen(x[ct[2]]), widen(x[cs[0]]),
                                        widen(x[cs[1]]), widen(x[cs[2]])))
       return;
+    // The model has this pair as made: neither the guard nor the contact pass acts on it.
+    const uint64_t key = uint64_t(std::min(t, s)) << 32 | std::max(t, s);
+    if (std::binary_search(mesh_.rest_pairs.begin(), mesh_.rest_pairs.end(), key)) return;
     const glm::vec3* l = lbs_.positions;
     const bool lbs_has =
         geometry::triangles_intersect(widen(l[rep_[ct[0]]]), widen(l[rep_[ct[1]]]), widen(l[rep_[ct[2]]]),
                                       widen(l[rep_[cs[0]]]), widen(l[rep_[cs[1]]]), widen(l[rep_[cs[2]]]));
-    const uint64_t key = uint64_t(std::min(t, s)) << 32 | std::max(t, s);
-    const bool allowed = lbs_has || std::binary_search(mesh_.rest_pairs.begin(), mesh_.rest_pairs.end(), key);
     if (record_) {
-      if (ws_.pair_keys.size() < ws_.pair_keys.capacity()) {  // no allocation
-        ws_.pair_keys.push_back(key);
-        ws_.pair_added.push_back(allowed ? 0 : 1);
+      if (ws_.pair_keys.size() < ws_.pair_keys.capacity() && ws_.pair_added.size() < ws_.pair_added.capacity()) {
+        ws_.pair_keys.push_back(key);  // no allocation
+        ws_.pair_added.push_back(lbs_has ? 0 : 1);
       } else {
         ws_.pairs_complete = false;
       }
     }
-    if (allowed) return;  // LBS has this pair too, or the model as made
+    if (lbs_has) return;  // LBS has this pair too
     flag_pair(ct, cs);
     added = true;
   }
@@ -318,6 +325,7 @@ void guard_intersections(const Deformable& d, const ContactMesh& mesh, const Den
     ws.flagged_list.clear();
     bool added = false;
     bool complete = pass.search(round, added);
+    pass.stop_recording();
     for (uint32_t t : ws.test_list) ws.tested[t] = 0;
     ws.test_list.clear();
     if (complete && round == 0 && hook && ws.pairs_complete && !ws.pair_keys.empty()) {

@@ -94,9 +94,10 @@ struct GuardWorkspace {
   Array<float> node_boxes;         // ContactMesh::hierarchy refitted to boxes, then grown around them
   Array<uint8_t> node_flags;       // per node: it holds a triangle of the first round
   Array<LeafLanes> leaf_flags;     // per leaf node: its lanes holding one
-  // The first round's intersecting pairs (s << 32 | t, s < t) and whether LBS lacks each, when a
-  // FirstRoundHook wants them; pairs_complete is false when they outnumbered the capacity
-  // (kGuardPairsPerTriangle per triangle), and the hook is then not called.
+  // The first round's intersecting pairs (s << 32 | t, s < t), but those the model has at rest,
+  // and whether LBS lacks each, when a FirstRoundHook wants them; pairs_complete is false when
+  // they outnumbered the capacity (kGuardPairsPerTriangle per triangle), and the hook is then
+  // not called (the contact pass skips that evaluation).
   Array<uint64_t> pair_keys;
   Array<uint8_t> pair_added;
   bool pairs_complete = false;
@@ -113,10 +114,12 @@ constexpr uint32_t kGuardPairsPerTriangle = 1;
 
 // Work run between the guard's first search and its first lowering: the contact pass, which
 // then needs no search of its own. It gets every intersecting pair of non-adjacent triangles
-// that search found (at λ = 1, every pair with a corner off LBS), may move skelform's result K
-// at welded vertices, and returns those vertices. The guard then keeps the verdicts of the
-// pairs none of whose corners moved, and searches again only around the moved ones: the
-// guard's outcome is that of a whole first round over the moved result.
+// that search found (at λ = 1, every pair with a corner off LBS, but those the model has at
+// rest), may move skelform's result K at welded vertices, and returns those vertices. The
+// guard then keeps the verdicts of the pairs none of whose corners moved, and searches again
+// only around the moved ones, with an allowance of the work budget of its own: the guard's
+// outcome is that of a whole first round over the moved result (except at the edge of the
+// work budget, which the two ways spend differently).
 class FirstRoundHook {
  public:
   virtual const Array<uint32_t>& after_first_search(const ContactPairs& pairs) = 0;
