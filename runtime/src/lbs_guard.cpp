@@ -192,18 +192,7 @@ class GuardPass {
       ws_.positions[v] = blended_position(d_, mesh_, skelform_, lbs_, ws_, v);
       ws_.moved[v] = ws_.positions[v] != lbs_.positions[rep_[v]];
     }
-    for (uint32_t v : moved)
-      for (uint32_t k = mesh_.incident_offsets[v]; k < mesh_.incident_offsets[v + 1]; ++k) {
-        const uint32_t t = mesh_.incident[k];
-        if (ws_.tested[t]) continue;
-        ws_.tested[t] = 1;
-        ws_.test_list.push_back(t);
-        const uint32_t* c = tri_ + 3 * size_t(t);
-        float box[6];
-        triangle_box(ws_.positions[c[0]], ws_.positions[c[1]], ws_.positions[c[2]], box);
-        ws_.boxes.set(h_.slot[t], box);
-        grow_triangle_hierarchy(h_, h_.slot[t], box, ws_.node_boxes.data());
-      }
+    for (uint32_t v : moved) list_around(v);
     bool around = false;
     const bool complete = search(1, around);
     added |= around;
@@ -225,22 +214,28 @@ class GuardPass {
     for (uint32_t v : ws_.flagged_list) {
       if (!ws_.changed[v]) continue;
       ws_.changed[v] = 0;
-      for (uint32_t k = mesh_.incident_offsets[v]; k < mesh_.incident_offsets[v + 1]; ++k) {
-        const uint32_t t = mesh_.incident[k];
-        if (ws_.tested[t]) continue;
-        ws_.tested[t] = 1;
-        ws_.test_list.push_back(t);
-        const uint32_t* c = tri_ + 3 * size_t(t);
-        float box[6];
-        triangle_box(ws_.positions[c[0]], ws_.positions[c[1]], ws_.positions[c[2]], box);
-        ws_.boxes.set(h_.slot[t], box);
-        grow_triangle_hierarchy(h_, h_.slot[t], box, ws_.node_boxes.data());
-      }
+      list_around(v);
     }
   }
 
  private:
   bool spend() { return ws_.budget.spend(); }
+
+  // Lists the triangles around welded vertex v (not listed yet) for the next search, with their
+  // boxes at x and the node boxes grown around them.
+  void list_around(uint32_t v) {
+    for (uint32_t k = mesh_.incident_offsets[v]; k < mesh_.incident_offsets[v + 1]; ++k) {
+      const uint32_t t = mesh_.incident[k];
+      if (ws_.tested[t]) continue;
+      ws_.tested[t] = 1;
+      ws_.test_list.push_back(t);
+      const uint32_t* c = tri_ + 3 * size_t(t);
+      float box[6];
+      triangle_box(ws_.positions[c[0]], ws_.positions[c[1]], ws_.positions[c[2]], box);
+      ws_.boxes.set(h_.slot[t], box);
+      grow_triangle_hierarchy(h_, h_.slot[t], box, ws_.node_boxes.data());
+    }
+  }
 
   // A pair of triangles whose boxes meet now and that share no corner: intersecting at x and
   // not at L? Then its corners are flagged.
