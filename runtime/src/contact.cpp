@@ -190,7 +190,8 @@ class Grid {
   // The intersecting pairs that the triangles around welded vertex v make now with the last
   // gather()'s candidates. With `push`, also the push of v out of them: for each pair (s, t),
   // where v lies behind t's plane or less than the gap in front of it, half the way out to the
-  // gap along t's normal (t's corners take the other half when they are pushed in turn).
+  // gap along t's normal (t's corners take the other half when they are pushed in turn), or the
+  // whole way when none of t's corners may move (a rigid part).
   // Like gather(), each triangle it looks at spends one of ws.budget, and a spent budget ends it.
   // A candidate's box is the one gather() stored: only v moves until the next gather, and a
   // triangle around v (whose stored box may be stale) shares v with every triangle of its
@@ -317,7 +318,9 @@ class Grid {
     if (!(length > 0.0f)) return;
     const glm::vec3 unit = n / length;
     const float distance = glm::dot(x_[v] - x_[q[0]], unit);
-    if (distance < gap_) push += 0.5f * (gap_ - distance) * unit;
+    // Half the way when t's corners can take the other half, the whole way when none can move.
+    const bool rigid = !((ws_.state[q[0]] | ws_.state[q[1]] | ws_.state[q[2]]) & kMovable);
+    if (distance < gap_) push += (rigid ? 1.0f : 0.5f) * (gap_ - distance) * unit;
   }
   // Do the normals of the triangles in entries [begin, end) all lie within 60 degrees of their
   // mean (for_each_pair)?
