@@ -287,6 +287,20 @@ TEST_CASE("contact: with a blend, the pass resolves what the output shows and mo
     Pass(rest_scene).run(on_k);
     CHECK(scene.pairs(blended(on_k)) > 0);
   }
+  SUBCASE("against a rigid part, the whole push") {
+    // The cube cannot move (w = 0): nothing takes the other half of each pair's push, so the tip
+    // takes it whole, (gap − distance) per pair, all along the face's normal; with the cap out
+    // of the way it lands there in one move.
+    for (size_t v = 0; v < 6; ++v) weight[v] = w;
+    std::vector<glm::vec3> k = scene.positions;
+    Pass pass(rest_scene);
+    pass.mesh.cap *= 100.0f;
+    const ContactStats stats =
+        resolve_contacts(pass.mesh, 1.0f, k.data(), uint32_t(k.size()), pass.workspace, {lbs.data(), weight.data()});
+    REQUIRE(stats.moved == 1);
+    const float expected = float(stats.pairs_before) * (pass.mesh.gap + 0.1f);
+    CHECK(blended(k)[0].z - 0.9f == doctest::Approx(expected).epsilon(1e-3));
+  }
   SUBCASE("a seam between a blended and a rigid copy of the tip stays closed") {
     // The tip's copy (a glTF seam) takes none of skelform's result: moving the welded tip would
     // leave that copy behind, so it does not move.
