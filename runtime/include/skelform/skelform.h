@@ -369,8 +369,8 @@ typedef struct sf_eval_options {
  * plus a share of skelform's correction per vertex (docs/runtime-api.md "LBS where LBS is
  * exact"): none on a vertex the skin gives to one joint alone (it is LBS's result, bit for
  * bit) or where the baked skelform weight is 0, and never so much that the output has an
- * intersecting triangle pair LBS does not have, or, on a closed mesh, a volume further from
- * the bind volume than LBS's. Scaled joint matrices (Blender's armature scale of 100,
+ * intersecting triangle pair that neither LBS nor the model at rest has, or, on a closed mesh,
+ * a volume further from the bind volume than LBS's. Scaled joint matrices (Blender's armature scale of 100,
  * Mixamo's 0.01) give the unscaled result scaled ("Scale"). Incremental by default: the fairing warm-starts from the previous
  * evaluation's correction (carried in each control vertex's local frame, so it follows the
  * character through translation and rotation) and runs `fairing_iterations` iterations. A
