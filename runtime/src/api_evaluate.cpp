@@ -217,7 +217,7 @@ void evaluate_skelform(sf_instance& instance, const sf_eval_options& options, bo
   const bool blended = skin && !instance.lbs_positions.empty();
   const DenseOutput lbs = lbs_buffers(instance).output();
   if (blended) dense_skinning(d, instance.joints, Blend::linear, with_normals, lbs);
-  if (blended) anchor_junctions(d, instance.joints.matrices.data(), lbs.positions, result.positions);
+  if (blended) anchor_junctions(d, instance.joints.affine.data(), lbs.positions, result.positions);
   // Blended, the pass runs inside the guard's first round and takes its search (ContactHook).
   if (instance.contacts_enabled && !blended)
     resolve_contacts(d.welded, scale, result.positions, d.vertex_count, instance.contact);

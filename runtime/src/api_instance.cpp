@@ -77,6 +77,15 @@ void size_dense_buffers(sf_instance& instance, const Deformable& d, const Alloca
   }
 }
 
+// The contact pass's scratch (contact.h), with its own grid where it runs without the guard:
+// with a handle set, or without a skin (no LBS). Throws std::bad_alloc.
+ContactWorkspace contact_workspace(const sf_instance& instance) {
+  ContactWorkspace workspace = make_contact_workspace(instance.deformable->welded, instance.allocator);
+  if (instance.handles.system || instance.lbs_positions.empty())
+    add_contact_grid(instance.deformable->welded, workspace);
+  return workspace;
+}
+
 bool all_finite(const float* values, size_t count) {
   for (size_t i = 0; i < count; ++i)
     if (!std::isfinite(values[i])) return false;
@@ -127,10 +136,8 @@ sf_instance::sf_instance(const sf_asset& owner, const Deformable& d)
   size_joint_buffers(*this, d);
   size_control_buffers(*this, d, owner.allocator);
   size_dense_buffers(*this, d, owner.allocator);
-  // The contact pass, on by default (sf_instance_set_contacts): inside the guard it needs no grid;
-  // a deformable without a skin has no guard.
-  contact = make_contact_workspace(d.welded, owner.allocator);
-  if (lbs_positions.empty()) add_contact_grid(d.welded, contact);
+  // The contact pass, on by default (sf_instance_set_contacts).
+  contact = contact_workspace(*this);
   contacts_enabled = true;
 }
 
@@ -264,12 +271,7 @@ sf_result sf_instance_set_contacts(sf_instance* instance, uint32_t enabled) {
     if (enabled > 1)
       return fail(instance, SF_ERROR_INVALID_ARGUMENT, "sf_instance_set_contacts: enabled is %u, not 0 or 1", enabled);
     if (enabled && !instance->contacts_enabled) {
-      // The pass's scratch is made here again; a failure leaves it off. With a handle set, or
-      // without a skin, the pass runs without the guard and needs its own grid.
-      ContactWorkspace next = make_contact_workspace(instance->deformable->welded, instance->allocator);
-      if (instance->handles.system || instance->lbs_positions.empty())
-        add_contact_grid(instance->deformable->welded, next);
-      instance->contact = std::move(next);
+      instance->contact = contact_workspace(*instance);  // made again; a failure leaves it off
     } else if (!enabled && instance->contacts_enabled) {
       instance->contact = ContactWorkspace(instance->allocator);  // frees the buffers
     }

@@ -127,7 +127,8 @@ struct ContactBlend {
 
 // The caller's search of the mesh the pass sees (the LBS guard's first round, lbs_guard.h), which
 // then stands in for the pass's own grid: its intersecting pairs of non-adjacent triangles, as
-// s << 32 | t with s < t (every such pair with a movable corner), are the pass's detection, and
+// s << 32 | t with s < t (every such pair with a movable corner, but those in
+// ContactMesh::rest_pairs), are the pass's detection, and
 // its hierarchy, with the node and triangle boxes at the positions the pass starts from, serves
 // the pass's gathers.
 struct ContactPairs {

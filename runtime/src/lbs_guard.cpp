@@ -448,20 +448,13 @@ double volume_share(const double v[4], double target) {
 
 }  // namespace
 
-void anchor_junctions(const Deformable& d, const glm::mat4* matrices, const glm::vec3* lbs, glm::vec3* skelform) {
+void anchor_junctions(const Deformable& d, const JointAffine* joints, const glm::vec3* lbs, glm::vec3* skelform) {
   for (size_t k = 0; k < d.anchor_vertices.size(); ++k) {
     const uint32_t i = d.anchor_vertices[k], h = d.anchor_hosts[k];
-    const uint16_t* joints = d.dense_joints.data() + size_t{h} * d.influences;
-    const float* weights = d.dense_weights.data() + size_t{h} * d.influences;
-    glm::mat4 m(0.0f);
-    float total = 0.0f;
-    for (uint32_t j = 0; j < d.influences; ++j)
-      if (weights[j] > 0.0f) {
-        m += weights[j] * matrices[joints[j]];
-        total += weights[j];
-      }
-    if (!(total > 0.0f)) continue;
-    const glm::vec3 anchored = glm::vec3(m * glm::vec4(d.rest_positions[i], 1.0f)) / total;
+    float m[12];  // the host's LBS matrix (its weights sum to 1: asset_skin.cpp)
+    blend_affine(joints, d.dense_joints.data() + size_t{h} * d.influences,
+                 d.dense_weights.data() + size_t{h} * d.influences, d.influences, m);
+    const glm::vec3 anchored = transform_point(m, d.rest_positions[i]);
     // The contact pass's write-back (contact.h): w ≥ kContactMinWeight here (derive_junction_anchors).
     skelform[i] = lbs[i] + (anchored - lbs[i]) / d.skelform_weight[i];
   }

@@ -42,7 +42,6 @@
 #include "memory.h"
 #include "triangle_bvh.h"
 
-#include <glm/mat4x4.hpp>
 #include <glm/vec3.hpp>
 #include <glm/vec4.hpp>
 
@@ -52,6 +51,7 @@ namespace skelform::runtime {
 
 struct Deformable;
 struct DenseOutput;
+struct JointAffine;
 
 constexpr uint32_t kGuardHalvings = 4;   // rounds that halve λ before it drops to 0
 constexpr uint32_t kGuardRampRings = 2;  // rings over which λ rises back from a corrected vertex
@@ -137,8 +137,9 @@ GuardWorkspace make_guard_workspace(const ContactMesh& mesh, const AllocatorRef&
 // (renormalised) and tangents.
 // Junction anchors (Deformable::anchor_vertices): sets skelform's result K at each anchored
 // dense vertex so that its output before the guard, L + w·(K − L), is its rest position under
-// its host's skin (the caller's `matrices` blended by the host vertex's weights). `lbs` is L.
-void anchor_junctions(const Deformable& d, const glm::mat4* matrices, const glm::vec3* lbs, glm::vec3* skelform);
+// its host's skin (the host vertex's LBS matrix, from the caller's joints as
+// prepare_joints made them: JointTransforms::affine). `lbs` is L.
+void anchor_junctions(const Deformable& d, const JointAffine* joints, const glm::vec3* lbs, glm::vec3* skelform);
 
 // `hook` (or null) runs once, after the first search (FirstRoundHook).
 void guard_and_blend(const Deformable& d, const ContactMesh& mesh, float scale, const DenseOutput& skelform,

@@ -14,6 +14,7 @@
 #include "brute_force_pairs.h"
 #include "instance.h"
 #include "lbs_guard.h"
+#include "skin_blend.h"
 #include "runtime/runtime_models.h"
 
 #include <doctest/doctest.h>
@@ -550,7 +551,10 @@ TEST_CASE("contact: a blended part modelled into a rigid one keeps its crossing 
     for (uint32_t j = 0; j < 2; ++j) m += d.dense_weights[4 * v + j] * matrices[d.dense_joints[4 * v + j]];
     l[v] = k[v] = glm::vec3(m * glm::vec4(rest[v], 1.0f));  // skelform's own result: LBS here
   }
-  anchor_junctions(d, matrices, l.data(), k.data());
+  JointAffine affine[2];
+  JointDualQuaternion dual_quaternion[2];
+  for (int j = 0; j < 2; ++j) prepare_joint(matrices[j], affine[j], dual_quaternion[j]);
+  anchor_junctions(d, affine, l.data(), k.data());
   std::vector<uint8_t> anchored(n, 0);
   for (uint32_t v : d.anchor_vertices) anchored[v] = 1;
   for (uint32_t v = 0; v < n; ++v) CHECK(glm::length(k[v] - (anchored[v] ? rest[v] : l[v])) < 1e-6f);
