@@ -50,6 +50,7 @@ GuardWorkspace make_guard_workspace(const ContactMesh& mesh, const AllocatorRef&
   ws.leaf_flags.resize(mesh.hierarchy.nodes.size());
   ws.pair_keys.reserve(size_t(kGuardPairsPerTriangle) * triangles);
   ws.pair_added.reserve(size_t(kGuardPairsPerTriangle) * triangles);
+  ws.gradient.resize(mesh.vertex_count);
   return ws;
 }
 
@@ -389,10 +390,30 @@ bool ramp_factors(const ContactMesh& mesh, GuardWorkspace& ws) {
   return !ws.lowered_list.empty();
 }
 
-// The volume bounded by x(μ) = L + μ·c at the representatives, c the guarded correction, as
-// the cubic V(μ) = v[0] + v[1]μ + v[2]μ² + v[3]μ³ (each triangle's det(a + μα, b + μβ, c + μγ)
-// expanded), in double, about the centre of L's bounds (a closed mesh's volume does not depend
-// on the origin; a near one keeps the products small).
+// The volume bounded by p(m) = base(w) + m·delta(w) over the welded mesh, as the cubic
+// V(m) = v[0] + v[1]m + v[2]m² + v[3]m³ (each triangle's det(a + mα, b + mβ, c + mγ) expanded), in
+// double. `base` should be about a point near the mesh: a closed mesh's volume does not depend
+// on the origin, and a near one keeps the products small.
+template <class Base, class Delta>
+void volume_cubic(const ContactMesh& mesh, const Base& base, const Delta& delta, double v[4]) {
+  auto det = [](const glm::dvec3& x, const glm::dvec3& y, const glm::dvec3& z) {
+    return glm::dot(x, glm::cross(y, z));
+  };
+  for (int k = 0; k < 4; ++k) v[k] = 0.0;
+  for (uint32_t t = 0; t < mesh.triangle_count; ++t) {
+    const uint32_t* q = mesh.triangles.data() + 3 * size_t(t);
+    const glm::dvec3 a = base(q[0]), b = base(q[1]), c = base(q[2]);
+    const glm::dvec3 da = delta(q[0]), db = delta(q[1]), dc = delta(q[2]);
+    v[0] += det(a, b, c);
+    v[1] += det(da, b, c) + det(a, db, c) + det(a, b, dc);
+    v[2] += det(da, db, c) + det(da, b, dc) + det(a, db, dc);
+    v[3] += det(da, db, dc);
+  }
+  for (int k = 0; k < 4; ++k) v[k] /= 6.0;
+}
+
+// The volume bounded by x(μ) = L + μ·c at the representatives, c the guarded correction, as a
+// cubic in μ (volume_cubic), about the centre of L's bounds.
 void volume_polynomial(const Deformable& d, const ContactMesh& mesh, const DenseOutput& skelform,
                        const DenseOutput& lbs, const GuardWorkspace& ws, double v[4]) {
   const float* weight = d.skelform_weight.data();
@@ -409,20 +430,86 @@ void volume_polynomial(const Deformable& d, const ContactMesh& mesh, const Dense
     const double s = double(weight[r]) * double(ws.factor[w]);
     return s * (glm::dvec3(skelform.positions[r]) - glm::dvec3(lbs.positions[r]));
   };
-  for (int k = 0; k < 4; ++k) v[k] = 0.0;
+  volume_cubic(mesh, base, correction, v);
+}
+
+// The volume offset aims just inside LBS's error, so that the float output it writes is not
+// found a rounding outside it.
+constexpr double kVolumeAim = 0.99;
+
+// Volume first by moving the corrected surface along its normals, not by taking the correction
+// back: where the guarded result x (whose volume_polynomial is `v`) is further from the target
+// volume than LBS is, each welded vertex moves by δ·s·n (s its share w·λ of skelform's
+// correction, n its unit volume gradient: the area-weighted normal; junction anchors stay) with
+// the smallest δ ≤ `limit` that brings the error within kVolumeAim of LBS's (the best of the
+// tried δ when none does). Written into skelform's result K, so that the output's blend moves
+// by it and a later λ scales it with the rest of the correction. Returns whether it moved
+// anything.
+bool offset_for_volume(const Deformable& d, const ContactMesh& mesh, const DenseOutput& skelform,
+                       const DenseOutput& lbs, GuardWorkspace& ws, double target, double limit, const double v[4]) {
+  const double lbs_error = std::fabs(v[0] - target);
+  const double error = std::fabs(v[0] + v[1] + v[2] + v[3] - target);
+  if (!(error > lbs_error) || !(limit > 0.0)) return false;
+  const double aim = lbs_error * kVolumeAim;
+  glm::dvec3 lo(std::numeric_limits<double>::max()), hi(-std::numeric_limits<double>::max());
+  for (uint32_t w = 0; w < mesh.vertex_count; ++w) {
+    ws.positions[w] = blended_position(d, mesh, skelform, lbs, ws, w);
+    lo = glm::min(lo, glm::dvec3(ws.positions[w]));
+    hi = glm::max(hi, glm::dvec3(ws.positions[w]));
+    ws.gradient[w] = glm::vec3(0.0f);
+  }
+  const glm::dvec3 centre = 0.5 * (lo + hi);
   for (uint32_t t = 0; t < mesh.triangle_count; ++t) {
     const uint32_t* q = mesh.triangles.data() + 3 * size_t(t);
-    const glm::dvec3 a = base(q[0]), b = base(q[1]), c = base(q[2]);
-    const glm::dvec3 da = correction(q[0]), db = correction(q[1]), dc = correction(q[2]);
-    auto det = [](const glm::dvec3& x, const glm::dvec3& y, const glm::dvec3& z) {
-      return glm::dot(x, glm::cross(y, z));
-    };
-    v[0] += det(a, b, c);
-    v[1] += det(da, b, c) + det(a, db, c) + det(a, b, dc);
-    v[2] += det(da, db, c) + det(da, b, dc) + det(a, db, dc);
-    v[3] += det(da, db, dc);
+    const glm::vec3 c(centre);
+    const glm::vec3 a = ws.positions[q[0]] - c, b = ws.positions[q[1]] - c, e = ws.positions[q[2]] - c;
+    ws.gradient[q[0]] += glm::cross(b, e);
+    ws.gradient[q[1]] += glm::cross(e, a);
+    ws.gradient[q[2]] += glm::cross(a, b);
   }
-  for (int k = 0; k < 4; ++k) v[k] /= 6.0;
+  const double sign = v[0] + v[1] + v[2] + v[3] < target ? 1.0 : -1.0;
+  for (uint32_t w = 0; w < mesh.vertex_count; ++w) {
+    const float length = glm::length(ws.gradient[w]);
+    ws.gradient[w] = length > 0.0f && std::isfinite(length) ? (float(sign) / length) * ws.gradient[w] : glm::vec3(0.0f);
+  }
+  // Junction anchors stay on their hosts (anchor_junctions): moved, they would slide the
+  // crossing the model has at rest over new triangles.
+  for (uint32_t i : d.anchor_vertices) ws.gradient[mesh.weld[i]] = glm::vec3(0.0f);
+  auto share = [&](uint32_t w) { return d.skelform_weight[mesh.representative[w]] * ws.factor[w]; };
+  double u[4];
+  volume_cubic(
+      mesh, [&](uint32_t w) { return glm::dvec3(ws.positions[w]) - centre; },
+      [&](uint32_t w) { return double(share(w)) * glm::dvec3(ws.gradient[w]); }, u);
+  // The error on the side it starts from (negative past the target): the first δ where it is
+  // at most the aim is never beyond the target's window.
+  const double side = u[0] < target ? -1.0 : 1.0;
+  auto error_at = [&](double m) { return side * (u[0] + m * (u[1] + m * (u[2] + m * u[3])) - target); };
+  // The first δ in (0, limit] within LBS's error: the first of δ = limit·2^(k−40), k = 0…40, that
+  // is, then bisection from the one before; else the best of them.
+  constexpr int kSteps = 40;
+  double chosen = 0.0, best = error_at(0.0), before = 0.0;
+  for (int k = 0; k <= kSteps; ++k) {
+    const double m = std::ldexp(limit, k - kSteps);
+    const double e = error_at(m);
+    if (e <= aim) {
+      double inside = m, outside = before;
+      for (int i = 0; i < 40; ++i) {
+        const double mid = 0.5 * (inside + outside);
+        (error_at(mid) <= aim ? inside : outside) = mid;
+      }
+      chosen = inside;
+      break;
+    }
+    if (e < best) {
+      best = e;
+      chosen = m;
+    }
+    before = m;
+  }
+  if (!(chosen > 0.0)) return false;
+  // K moves by δ·n at each copy, so that x = L + w·λ·(K − L) moves by δ·w·λ·n.
+  for (uint32_t i = 0; i < d.vertex_count; ++i) skelform.positions[i] += float(chosen) * ws.gradient[mesh.weld[i]];
+  return true;
 }
 
 // The largest μ in [0, 1] whose volume error |V(μ) − target| does not exceed LBS's |V(0) −
@@ -480,14 +567,24 @@ void guard_and_blend(const Deformable& d, const ContactMesh& mesh, float scale, 
     // Over the budget, every λ is 0 already (LBS): nothing is left to ramp or to scale.
     if (!ws.over_budget && ramp_factors(mesh, ws)) guard_intersections(d, mesh, skelform, lbs, ws, &ws.lowered_list);
     // Volume: a closed mesh keeps its rest volume, scaled by the pose's reference scale cubed,
-    // no worse than LBS does; μ scales the whole guarded correction where it would not.
+    // no worse than LBS does. First by moving the corrected surface along its normals
+    // (offset_for_volume, at most the contact pass's largest move), whose new pairs the guard
+    // then takes back; where that is not enough, μ scales the whole guarded correction.
     if (!ws.over_budget && mesh.closed && std::isfinite(mesh.rest_volume) && mesh.rest_volume != 0.0) {
       const double target = mesh.rest_volume * double(scale) * double(scale) * double(scale);
       for (uint32_t attempt = 0; attempt < kVolumeAttempts; ++attempt) {
         double v[4];
         volume_polynomial(d, mesh, skelform, lbs, ws, v);
-        const double share = attempt + 1 < kVolumeAttempts ? volume_share(v, target) : 0.0;
+        double share = volume_share(v, target);
         if (share >= 1.0) break;
+        if (offset_for_volume(d, mesh, skelform, lbs, ws, target, double(mesh.cap) * double(scale), v)) {
+          guard_intersections(d, mesh, skelform, lbs, ws);
+          if (ws.over_budget) break;
+          volume_polynomial(d, mesh, skelform, lbs, ws, v);
+          share = volume_share(v, target);
+          if (share >= 1.0) break;
+        }
+        if (attempt + 1 == kVolumeAttempts) share = 0.0;
         for (float& f : ws.factor) f *= float(share);
         ws.volume_share *= float(share);
         // The scaled correction is checked again: its pairs must still be LBS's.

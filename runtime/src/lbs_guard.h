@@ -28,11 +28,17 @@
 // frame uses under half of it), is output as LBS, so no input makes an evaluation quadratic.
 // Volume, on a closed mesh: after the intersection guard, if the result's volume is further
 // from the rest volume (times the pose's reference scale cubed: the bind volume) than LBS's,
+// the corrected surface first moves along its normals, each vertex by δ times its share w·λ
+// of skelform's correction (junction anchors stay), with the smallest δ that brings the
+// volume within LBS's error, at most the contact pass's largest move (ContactMesh::cap); the
+// intersection guard then takes back the pairs this makes. If the volume is still outside,
 // every λ is scaled by the largest μ ∈ [0, 1] that brings it back within LBS's error (the
 // volume of L + μ·correction is a cubic in μ), and the intersection guard runs again from
-// there; after kVolumeAttempts the correction falls back to 0 (LBS) altogether. So a closed
-// character's volume is never further from its bind volume than LBS's, frame by frame. Open
-// meshes bound no volume and keep μ = 1.
+// there; after kVolumeAttempts such tries the correction falls back to 0 (LBS) altogether. So
+// a closed character's volume is never further from its bind volume than LBS's, frame by
+// frame, and skelform's shape is kept where a move along the normals restores its volume
+// (scaling λ instead gave most of the correction back to LBS, and LBS's pairs with it). Open
+// meshes bound no volume and are not moved.
 //
 // The guard is per evaluation (a held pose gives the same λ, bit for bit: no jitter); where a
 // contact starts or ends between frames, the corrected vertices change their share there.
@@ -55,7 +61,7 @@ struct JointAffine;
 
 constexpr uint32_t kGuardHalvings = 4;   // rounds that halve λ before it drops to 0
 constexpr uint32_t kGuardRampRings = 2;  // rings over which λ rises back from a corrected vertex
-constexpr uint32_t kVolumeAttempts = 3;  // volume shares tried before the last falls back to LBS
+constexpr uint32_t kVolumeAttempts = 3;  // volume moves and shares tried before LBS
 
 // Scratch of one instance (make_guard_workspace), sized for its deformable's welded mesh.
 struct GuardWorkspace {
@@ -77,7 +83,8 @@ struct GuardWorkspace {
         node_flags(a),
         leaf_flags(a),
         pair_keys(a),
-        pair_added(a) {}
+        pair_added(a),
+        gradient(a) {}
   Array<float> factor;             // λ per welded vertex
   Array<glm::vec3> positions;      // x per welded vertex
   Array<uint8_t> moved;            // per welded vertex: x differs from L
@@ -101,6 +108,7 @@ struct GuardWorkspace {
   Array<uint64_t> pair_keys;
   Array<uint8_t> pair_added;
   bool pairs_complete = false;
+  Array<glm::vec3> gradient;  // per welded vertex: the volume offset's direction (offset_for_volume)
   PairBudget budget;          // this evaluation's candidate pairs
   bool over_budget = false;   // the last evaluation ran out of it (and is LBS)
   uint32_t rounds = 0;        // of the last evaluation
