@@ -71,8 +71,8 @@ Outcome guard(const Sphere& sphere, float cap) {
   std::vector<glm::vec3> on(n);
   GuardWorkspace ws = make_guard_workspace(d.welded, {});
   guard_and_blend(d, d.welded, 1.0f, DenseOutput{k.data(), kn.data(), nullptr},
-                  DenseOutput{l.data(), ln.data(), nullptr}, true, DenseOutput{out.positions.data(), on.data(), nullptr},
-                  ws);
+                  DenseOutput{l.data(), ln.data(), nullptr}, true,
+                  DenseOutput{out.positions.data(), on.data(), nullptr}, ws);
   out.volume_share = ws.volume_share;
   return out;
 }
