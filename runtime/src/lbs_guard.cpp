@@ -459,9 +459,9 @@ bool offset_for_volume(const Deformable& d, const ContactMesh& mesh, const Dense
     ws.gradient[w] = glm::vec3(0.0f);
   }
   const glm::dvec3 centre = 0.5 * (lo + hi);
+  const glm::vec3 c(centre);
   for (uint32_t t = 0; t < mesh.triangle_count; ++t) {
     const uint32_t* q = mesh.triangles.data() + 3 * size_t(t);
-    const glm::vec3 c(centre);
     const glm::vec3 a = ws.positions[q[0]] - c, b = ws.positions[q[1]] - c, e = ws.positions[q[2]] - c;
     ws.gradient[q[0]] += glm::cross(b, e);
     ws.gradient[q[1]] += glm::cross(e, a);
@@ -470,7 +470,10 @@ bool offset_for_volume(const Deformable& d, const ContactMesh& mesh, const Dense
   const double sign = v[0] + v[1] + v[2] + v[3] < target ? 1.0 : -1.0;
   for (uint32_t w = 0; w < mesh.vertex_count; ++w) {
     const float length = glm::length(ws.gradient[w]);
-    ws.gradient[w] = length > 0.0f && std::isfinite(length) ? (float(sign) / length) * ws.gradient[w] : glm::vec3(0.0f);
+    // (A subnormal length would make 1/length infinite.)
+    ws.gradient[w] = length >= std::numeric_limits<float>::min() && std::isfinite(length)
+                         ? (float(sign) / length) * ws.gradient[w]
+                         : glm::vec3(0.0f);
   }
   // Junction anchors stay on their hosts (anchor_junctions): moved, they would slide the
   // crossing the model has at rest over new triangles.
@@ -484,6 +487,7 @@ bool offset_for_volume(const Deformable& d, const ContactMesh& mesh, const Dense
   // at most the aim is never beyond the target's window.
   const double side = u[0] < target ? -1.0 : 1.0;
   auto error_at = [&](double m) { return side * (u[0] + m * (u[1] + m * (u[2] + m * u[3])) - target); };
+  if (!(error_at(0.0) > aim)) return false;  // within already, as the float x rounds
   // The first δ in (0, limit] within LBS's error: the first of δ = limit·2^(k−40), k = 0…40, that
   // is, then bisection from the one before; else the best of them.
   constexpr int kSteps = 40;

@@ -30,11 +30,12 @@
 // from the rest volume (times the pose's reference scale cubed: the bind volume) than LBS's,
 // the corrected surface first moves along its normals, each vertex by δ times its share w·λ
 // of skelform's correction (junction anchors stay), with the smallest δ that brings the
-// volume within LBS's error, at most the contact pass's largest move (ContactMesh::cap); the
-// intersection guard then takes back the pairs this makes. If the volume is still outside,
-// every λ is scaled by the largest μ ∈ [0, 1] that brings it back within LBS's error (the
-// volume of L + μ·correction is a cubic in μ), and the intersection guard runs again from
-// there; after kVolumeAttempts such tries the correction falls back to 0 (LBS) altogether. So
+// volume within 0.99 of LBS's error, at most the contact pass's largest move (ContactMesh::cap)
+// per try, or the δ that comes nearest when none does; the intersection guard then takes back
+// the pairs this makes. If the volume is still outside, every λ is scaled by the largest
+// μ ∈ [0, 1] that brings it back within LBS's error (the volume of L + μ·correction is a cubic
+// in μ), and the intersection guard runs again from there; a try is a move and a scaling, and
+// after kVolumeAttempts tries the correction falls back to 0 (LBS) altogether. So
 // a closed character's volume is never further from its bind volume than LBS's, frame by
 // frame, and skelform's shape is kept where a move along the normals restores its volume
 // (scaling λ instead gave most of the correction back to LBS, and LBS's pairs with it). Open
@@ -149,7 +150,8 @@ GuardWorkspace make_guard_workspace(const ContactMesh& mesh, const AllocatorRef&
 // prepare_joints made them: JointTransforms::affine). `lbs` is L.
 void anchor_junctions(const Deformable& d, const JointAffine* joints, const glm::vec3* lbs, glm::vec3* skelform);
 
-// `hook` (or null) runs once, after the first search (FirstRoundHook).
+// `hook` (or null) runs once, after the first search (FirstRoundHook). On a closed mesh the
+// volume step may move skelform's result K in place (along the normals), with or without a hook.
 void guard_and_blend(const Deformable& d, const ContactMesh& mesh, float scale, const DenseOutput& skelform,
                      const DenseOutput& lbs, bool with_normals, const DenseOutput& out, GuardWorkspace& ws,
                      FirstRoundHook* hook = nullptr);
