@@ -8,8 +8,10 @@
 // λ = 1 and looks for intersecting pairs of non-adjacent triangles of x that involve a
 // triangle moved off LBS (a pair of unmoved triangles is LBS's own pair). A pair that LBS
 // does not have (the same two triangles tested at L), and that does not intersect at rest
-// either (ContactMesh::rest_pairs: parts modelled through each other), halves λ at its moved
-// corners, and the search repeats; after kGuardHalvings rounds such corners fall to λ = 0
+// either (ContactMesh::rest_pairs: parts modelled through each other), halves λ at the moved
+// corners of its triangle further off LBS (the summed distance of its corners from L; the
+// other keeps its share, and is lowered in a later round only if the pair is still there),
+// and the search repeats; after kGuardHalvings rounds such corners fall to λ = 0
 // (exactly LBS). It ends when no such pair is left, which it must: a pair whose corners are
 // all at λ = 0 is LBS's. So every frame's intersecting pairs are a subset of LBS's and the
 // model's: skelform never adds a self-intersection to what LBS gives over the bind pose, on

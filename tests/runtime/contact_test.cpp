@@ -7,7 +7,8 @@
 // the bits of one that never had it). A blended part modelled into a rigid one follows it where
 // they cross (junction anchors), and the guard keeps the pairs the model has. Inside the LBS guard (lbs_guard.h FirstRoundHook), the
 // pass detects from the guard's first search, which lists every intersecting pair, and the
-// guard's outcome is that of a guard run afresh on the moved result, bit for bit.
+// guard's outcome is that of a guard run afresh on the moved result, bit for bit. The guard
+// takes a pair back on the triangle further off LBS, and leaves the other's correction.
 #include "contact.h"
 #include "asset.h"
 #include "asset_derive.h"
@@ -108,6 +109,28 @@ std::vector<glm::vec3> rest_of(const Scene& scene) {
     if (p == tip) p.z += 0.35f * (hi - lo);
   return rest;
 }
+
+// The scene open (the cube's bottom face dropped: the octahedron's 8 triangles come first), so
+// that the guard's volume step, which would check a result afresh, stays out of it: a
+// deformable of one primitive whose every vertex takes all of skelform's result, welded at
+// `rest`.
+struct OpenScene {
+  std::vector<uint32_t> triangles;
+  skelform::runtime::Deformable d{skelform::runtime::AllocatorRef{}};
+  ContactMesh mesh{skelform::runtime::AllocatorRef{}};
+  OpenScene(const Scene& scene, const std::vector<glm::vec3>& rest) : triangles(scene.triangles) {
+    triangles.erase(triangles.begin() + 24, triangles.begin() + 30);
+    const uint32_t n = uint32_t(rest.size());
+    d.vertex_count = n;
+    d.skelform_weight.assign(n, 1.0f);
+    skelform::runtime::PrimitiveRecord primitive;
+    primitive.vertex_count = n;
+    primitive.triangle_count = uint32_t(triangles.size() / 3);
+    primitive.has_normals = true;
+    d.primitives.push_back(primitive);
+    mesh = build_contact_mesh(rest.data(), n, triangles.data(), triangles.size() / 3, {});
+  }
+};
 
 struct Pass {
   std::vector<glm::vec3> rest;
@@ -433,20 +456,11 @@ TEST_CASE("contact: inside the guard, the pass detects from its search and the g
     CAPTURE(cap);
     const Scene scene(0.9f);
     const std::vector<glm::vec3> rest = rest_of(scene);  // LBS: the tip clear of the cube
-    // Open (the cube's bottom face dropped: the octahedron's 8 triangles come first), so that the
-    // guard's volume step, which would check the result afresh, stays out of it.
-    std::vector<uint32_t> triangles = scene.triangles;
-    triangles.erase(triangles.begin() + 24, triangles.begin() + 30);
+    OpenScene open(scene, rest);
+    const std::vector<uint32_t>& triangles = open.triangles;
+    const Deformable& d = open.d;
+    ContactMesh& mesh = open.mesh;
     const uint32_t n = uint32_t(rest.size());
-    Deformable d{AllocatorRef{}};
-    d.vertex_count = n;
-    d.skelform_weight.assign(n, 1.0f);
-    PrimitiveRecord primitive;
-    primitive.vertex_count = n;
-    primitive.triangle_count = uint32_t(triangles.size() / 3);
-    primitive.has_normals = true;
-    d.primitives.push_back(primitive);
-    ContactMesh mesh = build_contact_mesh(rest.data(), n, triangles.data(), triangles.size() / 3, {});
     REQUIRE(mesh.weld.size() == n);
     REQUIRE(!mesh.closed);
     mesh.cap *= cap;
@@ -568,4 +582,38 @@ TEST_CASE("contact: a blended part modelled into a rigid one keeps its crossing 
   CHECK(scene.pairs(l) == 0);
   CHECK(scene.pairs(out) == scene.pairs(rest));
   for (uint32_t v = 0; v < n; ++v) CHECK(glm::length(out[v] - k[v]) < 1e-6f);
+}
+
+// The guard (lbs_guard.h) takes a pair back on the side that moved into it: the octahedron's tip
+// pushed 0.35 down into the cube (K; L has it clear above), the cube's top face lifted by 0.01
+// (a correction of its own, which does not clear the contact). Only the tip's share is lowered:
+// the cube keeps its correction whole, and the output has no pair.
+TEST_CASE("contact: the guard lowers the triangle further off LBS, and keeps the other's correction") {
+  using namespace skelform::runtime;
+  const Scene scene(0.9f);
+  const std::vector<glm::vec3> rest = rest_of(scene);
+  const OpenScene open(scene, rest);
+  const Deformable& d = open.d;
+  const ContactMesh& mesh = open.mesh;
+  const uint32_t n = uint32_t(rest.size());
+  REQUIRE(!mesh.closed);
+  std::vector<glm::vec3> l = rest, k = scene.positions;
+  std::vector<uint8_t> lifted(n, 0);
+  for (uint32_t v = 6; v < n; ++v)
+    if (k[v].z == 1.0f) {
+      k[v].z += 0.01f;
+      lifted[v] = 1;
+    }
+  REQUIRE(std::count(lifted.begin(), lifted.end(), 1) == 4);
+  REQUIRE(scene.pairs(l) == 0);
+  REQUIRE(scene.pairs(k) > 0);
+  const std::vector<glm::vec3> normals(n, glm::vec3(0, 0, 1));
+  std::vector<glm::vec3> kn = normals, ln = normals, out(n), on(n);
+  GuardWorkspace ws = make_guard_workspace(mesh, {});
+  guard_and_blend(d, mesh, 1.0f, DenseOutput{k.data(), kn.data(), nullptr}, DenseOutput{l.data(), ln.data(), nullptr},
+                  true, DenseOutput{out.data(), on.data(), nullptr}, ws);
+  CHECK(scene.pairs(out) == 0);
+  for (uint32_t v = 6; v < n; ++v) CHECK(out[v] == k[v]);  // the whole cube, its lifted top included
+  CHECK(out[0] != k[0]);                                   // the tip gave its share back
+  CHECK(out[0].z > 1.01f);
 }
