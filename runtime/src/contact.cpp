@@ -452,8 +452,7 @@ ContactStats resolve_contacts(const ContactMesh& mesh, float scale, glm::vec3* d
   auto activate = [&](uint32_t s, uint32_t t) {
     // A pair the modeller made (it intersects at rest) is not a contact to resolve; a shared
     // search lists none (lbs_guard.h).
-    const uint64_t key = uint64_t(std::min(s, t)) << 32 | std::max(s, t);
-    if (!detected && std::binary_search(mesh.rest_pairs.begin(), mesh.rest_pairs.end(), key)) return;
+    if (!detected && mesh.intersects_at_rest(pair_key(s, t))) return;
     for (uint32_t k = 0; k < 3; ++k)
       for (uint32_t v : {tri[3 * size_t(s) + k], tri[3 * size_t(t) + k]})
         if ((ws.state[v] & (kActive | kMovable)) == kMovable) {

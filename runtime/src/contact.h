@@ -18,6 +18,7 @@
 
 #include <glm/vec3.hpp>
 
+#include <algorithm>
 #include <cstdint>
 
 namespace skelform::runtime {
@@ -42,13 +43,19 @@ struct ContactMesh {
   double rest_volume = 0.0;
   // The triangles' hierarchy over the rest pose (triangle_bvh.h), for the LBS guard.
   TriangleHierarchy hierarchy;
-  // The pairs that intersect as modelled (s << 32 | t, s < t, ascending): parts a modeller
-  // embedded in each other. The contact pass leaves them be.
+  // The pairs that intersect as modelled (pair_key, ascending): parts a modeller embedded in
+  // each other. The contact pass and the LBS guard leave them be.
   Array<uint64_t> rest_pairs;
+  bool intersects_at_rest(uint64_t pair) const {
+    return std::binary_search(rest_pairs.begin(), rest_pairs.end(), pair);
+  }
   // The rest-pair search ran out of its budget (pair_visit_budget: a mesh tangled over itself
   // at rest, as corrupt data gives): rest_pairs is empty, and the contact pass leaves the mesh.
   bool tangled_at_rest = false;
 };
+
+// Two triangles as one key, the smaller index first: s << 32 | t with s < t.
+inline uint64_t pair_key(uint32_t s, uint32_t t) { return uint64_t(std::min(s, t)) << 32 | std::max(s, t); }
 
 constexpr uint32_t kContactSweeps = 4;  // passes over the active vertices, at most
 // The pass's work budget, in guard budgets (pair_visit_budget): its detection is one search,

@@ -149,7 +149,7 @@ void find_rest_pairs(const glm::vec3* rest_positions, const AllocatorRef& alloca
         const uint32_t* q = tri + 3 * size_t(t);
         auto at = [&](uint32_t v) { return glm::dvec3(welded_rest[v]); };
         if (geometry::triangles_intersect(at(p[0]), at(p[1]), at(p[2]), at(q[0]), at(q[1]), at(q[2])))
-          mesh.rest_pairs.push_back(uint64_t(std::min(s, t)) << 32 | std::max(s, t));
+          mesh.rest_pairs.push_back(pair_key(s, t));
         return true;
       });
   if (!complete) {
