@@ -249,8 +249,8 @@ class GuardPass {
                                        widen(x[cs[1]]), widen(x[cs[2]])))
       return;
     // The model has this pair as made: neither the guard nor the contact pass acts on it.
-    const uint64_t key = uint64_t(std::min(t, s)) << 32 | std::max(t, s);
-    if (std::binary_search(mesh_.rest_pairs.begin(), mesh_.rest_pairs.end(), key)) return;
+    const uint64_t key = pair_key(t, s);
+    if (mesh_.intersects_at_rest(key)) return;
     const glm::vec3* l = lbs_.positions;
     const bool lbs_has =
         geometry::triangles_intersect(widen(l[rep_[ct[0]]]), widen(l[rep_[ct[1]]]), widen(l[rep_[ct[2]]]),
@@ -446,6 +446,17 @@ void volume_polynomial(const Deformable& d, const ContactMesh& mesh, const Dense
   volume_cubic(mesh, base, correction, v);
 }
 
+// Bisection between `inside`, where within(m) holds, and `outside`, where it does not: `steps`
+// halvings of the interval; the last point found within.
+template <class Within>
+double bisect(double inside, double outside, int steps, const Within& within) {
+  for (int i = 0; i < steps; ++i) {
+    const double m = 0.5 * (inside + outside);
+    (within(m) ? inside : outside) = m;
+  }
+  return inside;
+}
+
 // The volume offset aims just inside LBS's error, so that the float output it writes is not
 // found a rounding outside it.
 constexpr double kVolumeAim = 0.99;
@@ -509,12 +520,7 @@ bool offset_for_volume(const Deformable& d, const ContactMesh& mesh, const Dense
     const double m = std::ldexp(limit, k - kSteps);
     const double e = error_at(m);
     if (e <= aim) {
-      double inside = m, outside = before;
-      for (int i = 0; i < 40; ++i) {
-        const double mid = 0.5 * (inside + outside);
-        (error_at(mid) <= aim ? inside : outside) = mid;
-      }
-      chosen = inside;
+      chosen = bisect(m, before, 40, [&](double x) { return error_at(x) <= aim; });
       break;
     }
     if (e < best) {
@@ -542,12 +548,7 @@ double volume_share(const double v[4], double target) {
     const double m = double(i) / kSamples;
     if (error(m) <= limit) inside = m;
   }
-  double outside = inside + 1.0 / kSamples;
-  for (int i = 0; i < 30; ++i) {
-    const double m = 0.5 * (inside + outside);
-    (error(m) <= limit ? inside : outside) = m;
-  }
-  return inside;
+  return bisect(inside, inside + 1.0 / kSamples, 30, [&](double m) { return error(m) <= limit; });
 }
 
 }  // namespace
