@@ -349,6 +349,7 @@ inline void leaf_pair_sse2(const LeafPairInput& in, uint32_t first_a, uint32_t c
       meet = _mm_and_ps(meet, _mm_cmple_ps(_mm_loadu_ps(lo_x + bs + g), hy));
       meet = _mm_and_ps(meet, _mm_cmple_ps(lz, _mm_loadu_ps(lo_x + 5 * bs + g)));
       meet = _mm_and_ps(meet, _mm_cmple_ps(_mm_loadu_ps(lo_x + 2 * bs + g), hz));
+      if (_mm_movemask_ps(meet) == 0) continue;  // most lanes miss: no corners to compare
       __m128i shared = _mm_setzero_si128();
       for (size_t k = 0; k < 3; ++k) {
         const __m128i lane = _mm_loadu_si128(reinterpret_cast<const __m128i*>(in.corners + k * cs + first_b + g));
@@ -385,6 +386,7 @@ __attribute__((target("avx2"))) inline void leaf_pair_avx2(const LeafPairInput& 
       meet = _mm256_and_ps(meet, _mm256_cmp_ps(_mm256_loadu_ps(lo_x + bs + g), hy, _CMP_LE_OQ));
       meet = _mm256_and_ps(meet, _mm256_cmp_ps(lz, _mm256_loadu_ps(lo_x + 5 * bs + g), _CMP_LE_OQ));
       meet = _mm256_and_ps(meet, _mm256_cmp_ps(_mm256_loadu_ps(lo_x + 2 * bs + g), hz, _CMP_LE_OQ));
+      if (_mm256_movemask_ps(meet) == 0) continue;  // most lanes miss: no corners to compare
       __m256i shared = _mm256_setzero_si256();
       for (size_t k = 0; k < 3; ++k) {
         const __m256i lane = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(in.corners + k * cs + first_b + g));
