@@ -51,6 +51,10 @@ GuardWorkspace make_guard_workspace(const ContactMesh& mesh, const AllocatorRef&
   ws.pair_keys.reserve(size_t(kGuardPairsPerTriangle) * triangles);
   ws.pair_added.reserve(size_t(kGuardPairsPerTriangle) * triangles);
   ws.gradient.resize(mesh.vertex_count);
+  if (mesh.closed) {
+    ws.volume_base.resize(mesh.vertex_count);
+    ws.volume_delta.resize(mesh.vertex_count);
+  }
   return ws;
 }
 
@@ -403,32 +407,33 @@ bool ramp_factors(const ContactMesh& mesh, GuardWorkspace& ws) {
   return !ws.lowered_list.empty();
 }
 
-// The volume bounded by p(m) = base(w) + m·delta(w) over the welded mesh, as the cubic
+// The volume bounded by p(m) = base[w] + m·delta[w] over the welded mesh, as the cubic
 // V(m) = v[0] + v[1]m + v[2]m² + v[3]m³ (each triangle's det(a + mα, b + mβ, c + mγ) expanded), in
 // double. `base` should be about a point near the mesh: a closed mesh's volume does not depend
-// on the origin, and a near one keeps the products small.
-template <class Base, class Delta>
-void volume_cubic(const ContactMesh& mesh, const Base& base, const Delta& delta, double v[4]) {
-  auto det = [](const glm::dvec3& x, const glm::dvec3& y, const glm::dvec3& z) {
-    return glm::dot(x, glm::cross(y, z));
-  };
-  for (int k = 0; k < 4; ++k) v[k] = 0.0;
+// on the origin, and a near one keeps the products small. The callers fill base and delta per
+// welded vertex first (GuardWorkspace::volume_base, volume_delta): the triangles then read
+// them in place, each vertex converted and scaled once rather than at each of its triangles.
+void volume_cubic(const ContactMesh& mesh, const glm::dvec3* base, const glm::dvec3* delta, double v[4]) {
+  double v0 = 0.0, v1 = 0.0, v2 = 0.0, v3 = 0.0;
   for (uint32_t t = 0; t < mesh.triangle_count; ++t) {
     const uint32_t* q = mesh.triangles.data() + 3 * size_t(t);
-    const glm::dvec3 a = base(q[0]), b = base(q[1]), c = base(q[2]);
-    const glm::dvec3 da = delta(q[0]), db = delta(q[1]), dc = delta(q[2]);
-    v[0] += det(a, b, c);
-    v[1] += det(da, b, c) + det(a, db, c) + det(a, b, dc);
-    v[2] += det(da, db, c) + det(da, b, dc) + det(a, db, dc);
-    v[3] += det(da, db, dc);
+    const glm::dvec3 &a = base[q[0]], &b = base[q[1]], &c = base[q[2]];
+    const glm::dvec3 &da = delta[q[0]], &db = delta[q[1]], &dc = delta[q[2]];
+    // det(a + mα, b + mβ, c + mγ) = (a + mα)·((b + mβ) × (c + mγ)), the cross product's
+    // coefficients first: four cross products and six dot products.
+    const glm::dvec3 k0 = glm::cross(b, c), k1 = glm::cross(db, c) + glm::cross(b, dc), k2 = glm::cross(db, dc);
+    v0 += glm::dot(a, k0);
+    v1 += glm::dot(da, k0) + glm::dot(a, k1);
+    v2 += glm::dot(da, k1) + glm::dot(a, k2);
+    v3 += glm::dot(da, k2);
   }
-  for (int k = 0; k < 4; ++k) v[k] /= 6.0;
+  v[0] = v0 / 6.0, v[1] = v1 / 6.0, v[2] = v2 / 6.0, v[3] = v3 / 6.0;
 }
 
 // The volume bounded by x(μ) = L + μ·c at the representatives, c the guarded correction, as a
 // cubic in μ (volume_cubic), about the centre of L's bounds.
 void volume_polynomial(const Deformable& d, const ContactMesh& mesh, const DenseOutput& skelform,
-                       const DenseOutput& lbs, const GuardWorkspace& ws, double v[4]) {
+                       const DenseOutput& lbs, GuardWorkspace& ws, double v[4]) {
   const float* weight = d.skelform_weight.data();
   glm::dvec3 lo(std::numeric_limits<double>::max()), hi(-std::numeric_limits<double>::max());
   for (uint32_t w = 0; w < mesh.vertex_count; ++w) {
@@ -437,13 +442,13 @@ void volume_polynomial(const Deformable& d, const ContactMesh& mesh, const Dense
     hi = glm::max(hi, p);
   }
   const glm::dvec3 centre = 0.5 * (lo + hi);
-  auto base = [&](uint32_t w) { return glm::dvec3(lbs.positions[mesh.representative[w]]) - centre; };
-  auto correction = [&](uint32_t w) {
+  for (uint32_t w = 0; w < mesh.vertex_count; ++w) {
     const uint32_t r = mesh.representative[w];
     const double s = double(weight[r]) * double(ws.factor[w]);
-    return s * (glm::dvec3(skelform.positions[r]) - glm::dvec3(lbs.positions[r]));
-  };
-  volume_cubic(mesh, base, correction, v);
+    ws.volume_base[w] = glm::dvec3(lbs.positions[r]) - centre;
+    ws.volume_delta[w] = s * (glm::dvec3(skelform.positions[r]) - glm::dvec3(lbs.positions[r]));
+  }
+  volume_cubic(mesh, ws.volume_base.data(), ws.volume_delta.data(), v);
 }
 
 // Bisection between `inside`, where within(m) holds, and `outside`, where it does not: `steps`
@@ -502,11 +507,13 @@ bool offset_for_volume(const Deformable& d, const ContactMesh& mesh, const Dense
   // Junction anchors stay on their hosts (anchor_junctions): moved, they would slide the
   // crossing the model has at rest over new triangles.
   for (uint32_t i : d.anchor_vertices) ws.gradient[mesh.weld[i]] = glm::vec3(0.0f);
-  auto share = [&](uint32_t w) { return d.skelform_weight[mesh.representative[w]] * ws.factor[w]; };
+  for (uint32_t w = 0; w < mesh.vertex_count; ++w) {
+    const float share = d.skelform_weight[mesh.representative[w]] * ws.factor[w];
+    ws.volume_base[w] = glm::dvec3(ws.positions[w]) - centre;
+    ws.volume_delta[w] = double(share) * glm::dvec3(ws.gradient[w]);
+  }
   double u[4];
-  volume_cubic(
-      mesh, [&](uint32_t w) { return glm::dvec3(ws.positions[w]) - centre; },
-      [&](uint32_t w) { return double(share(w)) * glm::dvec3(ws.gradient[w]); }, u);
+  volume_cubic(mesh, ws.volume_base.data(), ws.volume_delta.data(), u);
   // The error on the side it starts from (negative past the target): the first δ where it is
   // at most the aim is never beyond the target's window.
   const double side = u[0] < target ? -1.0 : 1.0;

@@ -87,7 +87,9 @@ struct GuardWorkspace {
         leaf_flags(a),
         pair_keys(a),
         pair_added(a),
-        gradient(a) {}
+        gradient(a),
+        volume_base(a),
+        volume_delta(a) {}
   Array<float> factor;             // λ per welded vertex
   Array<glm::vec3> positions;      // x per welded vertex
   Array<uint8_t> moved;            // per welded vertex: x differs from L
@@ -112,6 +114,10 @@ struct GuardWorkspace {
   Array<uint8_t> pair_added;
   bool pairs_complete = false;
   Array<glm::vec3> gradient;  // per welded vertex: the volume offset's direction (offset_for_volume)
+  // Per welded vertex of a closed mesh (else empty): the volume cubic's base point and
+  // direction (volume_cubic), in double.
+  Array<glm::dvec3> volume_base;
+  Array<glm::dvec3> volume_delta;
   PairBudget budget;          // this evaluation's candidate pairs
   bool over_budget = false;   // the last evaluation ran out of it (and is LBS)
   uint32_t rounds = 0;        // of the last evaluation
