@@ -73,12 +73,32 @@ class Grid {
       : mesh_(mesh), ws_(ws), x_(ws.positions.data()), gap_(gap), shared_(shared) {}
 
   // With a shared search (ContactPairs), its hierarchy stands in for the cells: only checks the
-  // positions.
-  bool use_shared(float pad) {
+  // positions. Its boxes hold the triangles where they are (moved() keeps them so).
+  bool use_shared() {
     for (uint32_t v = 0; v < mesh_.vertex_count; ++v)
       if (!finite(x_[v])) return false;
-    pad_ = pad;
     return true;
+  }
+
+  // Welded vertex v has moved: with a shared search, its triangles' boxes grow to hold where
+  // they are now, and their node boxes with them, so that a gather needs no pad for it. (The
+  // pass's own grid pads its gathers by the cap instead.)
+  void moved(uint32_t v) {
+    if (!shared_) return;
+    const TriangleHierarchy& h = *shared_->hierarchy;
+    for (uint32_t k = mesh_.incident_offsets[v]; k < mesh_.incident_offsets[v + 1]; ++k) {
+      const uint32_t t = mesh_.incident[k];
+      glm::vec3 a, b;
+      box(t, a, b);
+      float grown[6];
+      shared_->boxes->get(h.slot[t], grown);
+      for (int c = 0; c < 3; ++c) {
+        grown[c] = std::min(grown[c], a[c]);
+        grown[3 + c] = std::max(grown[3 + c], b[c]);
+      }
+      shared_->boxes->set(h.slot[t], grown);
+      grow_triangle_hierarchy(h, h.slot[t], grown, shared_->node_boxes);
+    }
   }
 
   // Buckets every triangle by its box now. `pad` is how far a vertex may move from here during
@@ -160,8 +180,9 @@ class Grid {
     }
     lo -= glm::vec3(reach);
     hi += glm::vec3(reach);
-    // Another triangle is where it was bucketed, within the pad; kept if its box now meets the
-    // star's (the others do not move while v does).
+    // Another triangle is where it was bucketed, within the pad (in a shared search's
+    // hierarchy, inside its grown box); kept if its box now meets the star's (the others do not
+    // move while v does).
     auto consider = [&](uint32_t t) {
       if (ws_.stamps[t] == ws_.stamp || !ws_.budget.spend()) return;
       ws_.stamps[t] = ws_.stamp;
@@ -173,7 +194,7 @@ class Grid {
       ws_.candidates.push_back(t);  // at most every triangle: reserved
     };
     if (shared_) {
-      const float query[6] = {lo.x - pad_, lo.y - pad_, lo.z - pad_, hi.x + pad_, hi.y + pad_, hi.z + pad_};
+      const float query[6] = {lo.x, lo.y, lo.z, hi.x, hi.y, hi.z};
       query_triangle_hierarchy(*shared_->hierarchy, shared_->node_boxes, *shared_->boxes, query,
                                [&](uint32_t t) { consider(t); });
       return;
@@ -440,7 +461,7 @@ ContactStats resolve_contacts(const ContactMesh& mesh, float scale, glm::vec3* d
     for (uint32_t i = 0; i < dense_vertex_count; ++i)
       if (!(blend.weight[i] >= kContactMinWeight)) ws.state[mesh.weld[i]] = 0;
   Grid grid(mesh, gap, ws, detected);
-  if (!(detected ? grid.use_shared(cap) : grid.build(cap))) return stats;  // a non-finite position: leave it
+  if (!(detected ? grid.use_shared() : grid.build(cap))) return stats;  // a non-finite position: leave it
   ws.budget = PairBudget(mesh.triangle_count, kContactBudgetPasses);
   auto spent = [&] {
     stats.over_budget = ws.budget.left == 0;  // then move nothing: the counts were cut short
@@ -504,6 +525,7 @@ ContactStats resolve_contacts(const ContactMesh& mesh, float scale, glm::vec3* d
         continue;
       }
       ws.state[v] |= kMoved;
+      grid.moved(v);
       any = true;
     }
     if (!any) break;

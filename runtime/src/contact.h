@@ -138,12 +138,15 @@ struct ContactBlend {
 // ContactMesh::rest_pairs), are the pass's detection, and
 // its hierarchy, with the node and triangle boxes at the positions the pass starts from, serves
 // the pass's gathers.
+// The pass keeps the boxes holding every triangle as it moves vertices (a moved vertex's
+// triangles' boxes and their node boxes grow around where they are now), so its gathers query
+// the hierarchy with no allowance for motion; the boxes stay valid for the guard after it.
 struct ContactPairs {
   const uint64_t* keys = nullptr;
   size_t count = 0;
   const TriangleHierarchy* hierarchy = nullptr;
-  const float* node_boxes = nullptr;
-  const SlotBoxes* boxes = nullptr;
+  float* node_boxes = nullptr;
+  SlotBoxes* boxes = nullptr;
 };
 
 // With a blend, a welded vertex moves only if every copy of it takes at least this share of

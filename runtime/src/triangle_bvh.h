@@ -369,10 +369,31 @@ __attribute__((target("avx2"))) inline void leaf_pair_avx2(const LeafPairInput& 
                                                            LeafLanes* masks) {
   const size_t bs = in.box_stride, cs = in.corner_stride;
   const float* lo_x = in.planes + first_b;
-  for (uint32_t i = 0; i < count_a; ++i) {
+  // The rows whose box meets B's node box, eight at a time (the slots after A's last are the
+  // next leaf's or padding: in bounds, and masked off).
+  LeafLanes rows = 0;
+  {
+    const float* la = in.planes + first_a;
+    const __m256 nlx = _mm256_set1_ps(node_box_b[0]), nly = _mm256_set1_ps(node_box_b[1]),
+                 nlz = _mm256_set1_ps(node_box_b[2]);
+    const __m256 nhx = _mm256_set1_ps(node_box_b[3]), nhy = _mm256_set1_ps(node_box_b[4]),
+                 nhz = _mm256_set1_ps(node_box_b[5]);
+    for (uint32_t g = 0; g < count_a; g += 8) {
+      __m256 meet = _mm256_and_ps(_mm256_cmp_ps(_mm256_loadu_ps(la + g), nhx, _CMP_LE_OQ),
+                                  _mm256_cmp_ps(nlx, _mm256_loadu_ps(la + 3 * bs + g), _CMP_LE_OQ));
+      meet = _mm256_and_ps(meet, _mm256_cmp_ps(_mm256_loadu_ps(la + bs + g), nhy, _CMP_LE_OQ));
+      meet = _mm256_and_ps(meet, _mm256_cmp_ps(nly, _mm256_loadu_ps(la + 4 * bs + g), _CMP_LE_OQ));
+      meet = _mm256_and_ps(meet, _mm256_cmp_ps(_mm256_loadu_ps(la + 2 * bs + g), nhz, _CMP_LE_OQ));
+      meet = _mm256_and_ps(meet, _mm256_cmp_ps(nlz, _mm256_loadu_ps(la + 5 * bs + g), _CMP_LE_OQ));
+      rows |= LeafLanes(_mm256_movemask_ps(meet)) << g;
+    }
+    rows &= (LeafLanes(1) << count_a) - 1;  // count_a ≤ kLeafTriangles < 64
+  }
+  for (uint32_t i = 0; i < count_a; ++i) masks[i] = 0;
+  while (rows) {
+    const uint32_t i = uint32_t(__builtin_ctzll(rows));
+    rows &= rows - 1;
     const uint32_t a = first_a + i;
-    masks[i] = 0;
-    if (!box_meets_node(in, a, node_box_b)) continue;
     const float* pa = in.planes + a;
     const __m256 lx = _mm256_set1_ps(pa[0]), ly = _mm256_set1_ps(pa[bs]), lz = _mm256_set1_ps(pa[2 * bs]);
     const __m256 hx = _mm256_set1_ps(pa[3 * bs]), hy = _mm256_set1_ps(pa[4 * bs]), hz = _mm256_set1_ps(pa[5 * bs]);
