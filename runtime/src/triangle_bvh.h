@@ -310,15 +310,16 @@ inline void mark_wanted(const TriangleHierarchy& h, const uint8_t* wanted, uint8
 // The leaf-pair kernel: for each of the `count_a` triangles in slots first_a.. (leaf A),
 // masks[i] gets bit j when lane j of the leaf at first_b (B, kLeafTriangles lanes; lanes past
 // B are not masked here) holds a triangle whose box meets triangle i's and that shares no
-// corner with it; masks[i] is 0 when triangle i's box misses B's node box.
+// corner with it; masks[i] is 0 when triangle i's box misses B's node box. Returns the rows
+// whose mask is not 0 (bit i), so that the caller visits only those.
 struct LeafPairInput {
   const float* planes;      // SlotBoxes::planes
   size_t box_stride;        // SlotBoxes::stride
   const uint32_t* corners;  // TriangleHierarchy::corners
   size_t corner_stride;     // TriangleHierarchy::slot_stride()
 };
-using LeafPairKernel = void (*)(const LeafPairInput& in, uint32_t first_a, uint32_t count_a, uint32_t first_b,
-                                const float* node_box_b, LeafLanes* masks);
+using LeafPairKernel = LeafLanes (*)(const LeafPairInput& in, uint32_t first_a, uint32_t count_a, uint32_t first_b,
+                                     const float* node_box_b, LeafLanes* masks);
 
 inline bool box_meets_node(const LeafPairInput& in, uint32_t i, const float* node) {
   const float* p = in.planes + i;
@@ -328,8 +329,9 @@ inline bool box_meets_node(const LeafPairInput& in, uint32_t i, const float* nod
 }
 
 #if defined(__SSE2__)
-inline void leaf_pair_sse2(const LeafPairInput& in, uint32_t first_a, uint32_t count_a, uint32_t first_b,
-                           const float* node_box_b, LeafLanes* masks) {
+inline LeafLanes leaf_pair_sse2(const LeafPairInput& in, uint32_t first_a, uint32_t count_a, uint32_t first_b,
+                                const float* node_box_b, LeafLanes* masks) {
+  LeafLanes hit = 0;
   const size_t bs = in.box_stride, cs = in.corner_stride;
   const float* lo_x = in.planes + first_b;
   for (uint32_t i = 0; i < count_a; ++i) {
@@ -359,14 +361,16 @@ inline void leaf_pair_sse2(const LeafPairInput& in, uint32_t first_a, uint32_t c
       mask |= LeafLanes(_mm_movemask_ps(_mm_andnot_ps(_mm_castsi128_ps(shared), meet))) << g;
     }
     masks[i] = mask;
+    hit |= LeafLanes(mask != 0) << i;
   }
+  return hit;
 }
 #endif
 
 #if defined(SKELFORM_HIERARCHY_AVX2)
-__attribute__((target("avx2"))) inline void leaf_pair_avx2(const LeafPairInput& in, uint32_t first_a, uint32_t count_a,
-                                                           uint32_t first_b, const float* node_box_b,
-                                                           LeafLanes* masks) {
+__attribute__((target("avx2"))) inline LeafLanes leaf_pair_avx2(const LeafPairInput& in, uint32_t first_a,
+                                                                uint32_t count_a, uint32_t first_b,
+                                                                const float* node_box_b, LeafLanes* masks) {
   const size_t bs = in.box_stride, cs = in.corner_stride;
   const float* lo_x = in.planes + first_b;
   // The rows whose box meets B's node box, eight at a time (the slots after A's last are the
@@ -390,6 +394,7 @@ __attribute__((target("avx2"))) inline void leaf_pair_avx2(const LeafPairInput& 
     rows &= (LeafLanes(1) << count_a) - 1;  // count_a ≤ kLeafTriangles < 64
   }
   for (uint32_t i = 0; i < count_a; ++i) masks[i] = 0;
+  LeafLanes hit = 0;
   while (rows) {
     const uint32_t i = uint32_t(__builtin_ctzll(rows));
     rows &= rows - 1;
@@ -418,12 +423,15 @@ __attribute__((target("avx2"))) inline void leaf_pair_avx2(const LeafPairInput& 
       mask |= LeafLanes(_mm256_movemask_ps(_mm256_andnot_ps(_mm256_castsi256_ps(shared), meet))) << g;
     }
     masks[i] = mask;
+    hit |= LeafLanes(mask != 0) << i;
   }
+  return hit;
 }
 #endif
 
-inline void leaf_pair_portable(const LeafPairInput& in, uint32_t first_a, uint32_t count_a, uint32_t first_b,
-                               const float* node_box_b, LeafLanes* masks) {
+inline LeafLanes leaf_pair_portable(const LeafPairInput& in, uint32_t first_a, uint32_t count_a, uint32_t first_b,
+                                    const float* node_box_b, LeafLanes* masks) {
+  LeafLanes hit = 0;
   const size_t bs = in.box_stride, cs = in.corner_stride;
   const float* p = in.planes;
   for (uint32_t i = 0; i < count_a; ++i) {
@@ -439,7 +447,9 @@ inline void leaf_pair_portable(const LeafPairInput& in, uint32_t first_a, uint32
         for (size_t j = 0; j < 3; ++j) shared |= in.corners[k * cs + b] == in.corners[j * cs + a];
       masks[i] |= LeafLanes(meet && !shared) << g;
     }
+    hit |= LeafLanes(masks[i] != 0) << i;
   }
+  return hit;
 }
 
 // The fastest kernel this CPU runs: AVX2 where the CPU has it (checked once), else SSE2
@@ -480,8 +490,10 @@ bool self_pairs_triangle_hierarchy(const TriangleHierarchy& h, const float* node
   // allowed(i) is set. False when the visitor stopped.
   auto leaves = [&](uint32_t a, uint32_t b, auto&& allowed) {
     const HierarchyNode na = h.nodes[a], nb = h.nodes[b];
-    kernel(input, na.first, na.count, nb.first, node_boxes + 6 * size_t(b), masks);
-    for (uint32_t i = 0; i < na.count; ++i) {
+    LeafLanes hit = kernel(input, na.first, na.count, nb.first, node_boxes + 6 * size_t(b), masks);
+    while (hit) {
+      const uint32_t i = uint32_t(__builtin_ctzll(hit));
+      hit &= hit - 1;
       LeafLanes mask = masks[i] & allowed(i);
       const uint32_t s = h.order[na.first + i];
       while (mask) {

@@ -182,7 +182,7 @@ TEST_CASE("triangle hierarchy: the self-pair search finds what a brute-force loo
   }
 }
 
-TEST_CASE("triangle hierarchy: every leaf-pair kernel gives the portable loop's masks") {
+TEST_CASE("triangle hierarchy: every leaf-pair kernel gives the portable loop's masks and rows") {
   std::vector<glm::vec3> rest, now;
   std::vector<uint32_t> tri;
   grid(23, 1.3f, rest, now, tri);
@@ -202,18 +202,21 @@ TEST_CASE("triangle hierarchy: every leaf-pair kernel gives the portable loop's 
 #endif
   kernels.emplace_back("chosen", detail::leaf_pair_kernel());
   std::map<std::string, size_t> mismatches;
-  size_t pairs = 0, bits = 0;
+  size_t pairs = 0, bits = 0, hit_mismatches = 0;  // hit_mismatches: rows the portable loop names wrongly
   for (uint32_t a = 0; a < h.nodes.size(); ++a) {
     if (h.nodes[a].count == 0) continue;
     for (uint32_t b = 0; b < h.nodes.size(); ++b) {
       if (h.nodes[b].count == 0) continue;
       skelform::runtime::LeafLanes expected[skelform::runtime::kLeafTriangles], got[skelform::runtime::kLeafTriangles];
-      detail::leaf_pair_portable(input, h.nodes[a].first, h.nodes[a].count, h.nodes[b].first,
-                                 node_boxes.data() + 6 * size_t(b), expected);
+      const skelform::runtime::LeafLanes expected_hit = detail::leaf_pair_portable(
+          input, h.nodes[a].first, h.nodes[a].count, h.nodes[b].first, node_boxes.data() + 6 * size_t(b), expected);
+      for (uint32_t i = 0; i < h.nodes[a].count; ++i)
+        hit_mismatches += ((expected_hit >> i) & 1) != (expected[i] != 0 ? 1u : 0u) ? 1 : 0;
       for (const auto& kernel : kernels) {
-        kernel.second(input, h.nodes[a].first, h.nodes[a].count, h.nodes[b].first, node_boxes.data() + 6 * size_t(b),
-                      got);
+        const skelform::runtime::LeafLanes hit = kernel.second(
+            input, h.nodes[a].first, h.nodes[a].count, h.nodes[b].first, node_boxes.data() + 6 * size_t(b), got);
         for (uint32_t i = 0; i < h.nodes[a].count; ++i) mismatches[kernel.first] += got[i] != expected[i] ? 1 : 0;
+        mismatches[kernel.first] += hit != expected_hit ? 1 : 0;
       }
       ++pairs;
       for (uint32_t i = 0; i < h.nodes[a].count; ++i) bits += size_t(__builtin_popcountll(expected[i]));
@@ -223,6 +226,7 @@ TEST_CASE("triangle hierarchy: every leaf-pair kernel gives the portable loop's 
     INFO(kernel.first);
     CHECK(mismatches[kernel.first] == 0);
   }
+  CHECK(hit_mismatches == 0);  // each kernel returns the rows whose mask is not 0
   CHECK(pairs > 100);
   CHECK(bits > 1000);  // the masks are not all empty
 }
