@@ -430,10 +430,26 @@ void volume_cubic(const ContactMesh& mesh, const glm::dvec3* base, const glm::dv
   v[0] = v0 / 6.0, v[1] = v1 / 6.0, v[2] = v2 / 6.0, v[3] = v3 / 6.0;
 }
 
+// Whether the volume at m = 1 (base + delta) is no further from `target` than at m = 0 (base):
+// two determinants per triangle where the cubic takes ten products. The arrays as volume_cubic
+// reads them.
+bool volume_within(const ContactMesh& mesh, const glm::dvec3* base, const glm::dvec3* delta, double target) {
+  double at_zero = 0.0, at_one = 0.0;
+  for (uint32_t t = 0; t < mesh.triangle_count; ++t) {
+    const uint32_t* q = mesh.triangles.data() + 3 * size_t(t);
+    const glm::dvec3 &a = base[q[0]], &b = base[q[1]], &c = base[q[2]];
+    at_zero += glm::dot(a, glm::cross(b, c));
+    at_one += glm::dot(a + delta[q[0]], glm::cross(b + delta[q[1]], c + delta[q[2]]));
+  }
+  return std::fabs(at_one / 6.0 - target) <= std::fabs(at_zero / 6.0 - target);
+}
+
 // The volume bounded by x(μ) = L + μ·c at the representatives, c the guarded correction, as a
-// cubic in μ (volume_cubic), about the centre of L's bounds.
-void volume_polynomial(const Deformable& d, const ContactMesh& mesh, const DenseOutput& skelform,
-                       const DenseOutput& lbs, GuardWorkspace& ws, double v[4]) {
+// cubic in μ (volume_cubic), about the centre of L's bounds. With `within_target`: false, and
+// no cubic, when x = L + c is already no further from it than L (volume_within), which most
+// evaluations are.
+bool volume_polynomial(const Deformable& d, const ContactMesh& mesh, const DenseOutput& skelform,
+                       const DenseOutput& lbs, GuardWorkspace& ws, double v[4], const double* within_target = nullptr) {
   const float* weight = d.skelform_weight.data();
   glm::dvec3 lo(std::numeric_limits<double>::max()), hi(-std::numeric_limits<double>::max());
   for (uint32_t w = 0; w < mesh.vertex_count; ++w) {
@@ -448,7 +464,9 @@ void volume_polynomial(const Deformable& d, const ContactMesh& mesh, const Dense
     ws.volume_base[w] = glm::dvec3(lbs.positions[r]) - centre;
     ws.volume_delta[w] = s * (glm::dvec3(skelform.positions[r]) - glm::dvec3(lbs.positions[r]));
   }
+  if (within_target && volume_within(mesh, ws.volume_base.data(), ws.volume_delta.data(), *within_target)) return false;
   volume_cubic(mesh, ws.volume_base.data(), ws.volume_delta.data(), v);
+  return true;
 }
 
 // Bisection between `inside`, where within(m) holds, and `outside`, where it does not: `steps`
@@ -599,7 +617,8 @@ void guard_and_blend(const Deformable& d, const ContactMesh& mesh, float scale, 
       const double target = mesh.rest_volume * double(scale) * double(scale) * double(scale);
       for (uint32_t attempt = 0; attempt < kVolumeAttempts; ++attempt) {
         double v[4];
-        volume_polynomial(d, mesh, skelform, lbs, ws, v);
+        // (The first try asks first whether the whole correction is within: most are.)
+        if (!volume_polynomial(d, mesh, skelform, lbs, ws, v, attempt == 0 ? &target : nullptr)) break;
         double share = volume_share(v, target);
         if (share >= 1.0) break;
         if (offset_for_volume(d, mesh, skelform, lbs, ws, target, double(mesh.cap) * double(scale), v)) {
