@@ -15,6 +15,7 @@
 
 #include <glm/geometric.hpp>
 
+#include <algorithm>
 #include <cmath>
 #include <map>
 
@@ -211,6 +212,10 @@ BakedDeformable bake_deformable(const InputMesh& group, const BakeOptions& optio
   report.residual_share =
       group.positions.empty() ? 0.0 : double(binding.residual_vertices) / double(group.positions.size());
   report.rest_error = binding.max_rest_error;
+  if (!baked.skelform_weight.empty())
+    report.skelform_share = double(std::count_if(baked.skelform_weight.begin(), baked.skelform_weight.end(),
+                                                 [](float w) { return w > 0.0f; })) /
+                            double(baked.skelform_weight.size());
   return baked;
 }
 

@@ -285,10 +285,11 @@ int run_bake(const Arguments& args) {
         std::snprintf(skeleton, sizeof(skeleton), "skeleton %.2f%% inside", 100.0 * r.skeleton_inside);
       std::printf(
           "  mesh %d: %zu vertices (%zu welded), %zu triangles -> control %zu triangles%s, level %d "
-          "(%zu triangles); %s; tangential residual on %.2f%% of vertices; rest error %.2g of diagonal\n",
+          "(%zu triangles); %s; tangential residual on %.2f%% of vertices; rest error %.2g of diagonal; "
+          "skelform weight above 0 on %.1f%% of vertices\n",
           r.mesh, r.dense_vertices, r.welded_vertices, r.dense_triangles, r.control_triangles,
           r.decimated ? "" : " (not decimated)", r.subdivision_level, r.refined_triangles, skeleton,
-          100.0 * r.residual_share, r.rest_error);
+          100.0 * r.residual_share, r.rest_error, 100.0 * r.skelform_share);
     }
   }
   return kExitOk;

@@ -9,6 +9,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <map>
 
 using namespace skelform::bake;
 
@@ -112,5 +113,26 @@ TEST_CASE("every skinned model of the data set bakes and reproduces its rest pos
                               << " triangles, level " << r.subdivision_level << ", residual share " << r.residual_share
                               << ", rest error " << error << ", skeleton inside " << r.skeleton_inside);
     CHECK(error <= 1e-5);
+    // The share of vertices skelform works for: none rigidly weighted (one joint holds 99.9 % of
+    // the skin), every one whose dominant joint holds 95 % or less.
+    size_t blended = 0, fully_blended = 0;
+    for (size_t v = 0; v < input.positions.size(); ++v) {
+      std::map<uint16_t, double> share;
+      double total = 0.0;
+      for (size_t set = 0; set < input.joint_sets.size(); ++set)
+        for (size_t k = 0; k < 4; ++k)
+          if (input.weight_sets[set][v][k] > 0.0f) {
+            share[input.joint_sets[set][v][k]] += input.weight_sets[set][v][k];
+            total += input.weight_sets[set][v][k];
+          }
+      double largest = 0.0;
+      for (const auto& joint : share) largest = std::max(largest, joint.second);
+      if (total > 0.0 && largest / total < 0.999) ++blended;
+      if (total > 0.0 && largest / total <= 0.95) ++fully_blended;
+    }
+    const double n = double(input.positions.size());
+    CHECK(r.skelform_share <= double(blended) / n + 1e-12);
+    CHECK(r.skelform_share >= double(fully_blended) / n - 1e-12);
+    CHECK(r.skelform_share > 0.0);
   }
 }

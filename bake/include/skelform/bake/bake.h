@@ -34,6 +34,9 @@ struct DeformableReport {
   double skeleton_inside = 0;  // fraction of skeletal vertices inside the control mesh
   double residual_share = 0;   // share of dense vertices with tangential residual > 1e-3·diag
   double rest_error = 0;       // max rest-pose reconstruction error / diagonal (float path)
+  // Share of dense vertices with a skelform weight above 0: those the runtime pays skelform's
+  // work for (the rest are exactly LBS). 1 for an unskinned mesh (handles only).
+  double skelform_share = 1;
 };
 
 struct BakeResult {
