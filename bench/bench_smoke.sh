@@ -1,6 +1,7 @@
 #!/bin/sh
 # CTest bench_smoke: skelform-bench --json --smoke must print one JSON line per mesh (2-3) with
-# every method's figure, and --crowd 4 --smoke its line. Skips (77) without the shared data.
+# every method's figure, --crowd 4 --smoke its line, and --frames CesiumMan 2 its line. Skips
+# (77) without the shared data.
 #
 #   bench_smoke.sh SKELFORM_BENCH DATA_DIR
 BENCH=$1 DATA=${SKELFORM_DATA_DIR:-$2}
@@ -24,3 +25,9 @@ crowd=$("$BENCH" --crowd 4 --smoke) || { echo "FAIL: skelform-bench --crowd exit
 echo "$crowd"
 printf '%s\n' "$crowd" | grep -q '^{"crowd": 4, "mesh": "CesiumMan_loop1", "vertices": [0-9]*, "threads": [0-9]*, "frames": 3, "ms_per_frame": {"skelform": [0-9.]*, "lbs_optimised": [0-9.]*}}$' \
   || { echo "FAIL: unexpected --crowd output"; exit 1; }
+# --frames: one line, and an unknown mesh is refused.
+frames=$("$BENCH" --frames CesiumMan 2 2>/dev/null) || { echo "FAIL: skelform-bench --frames exited $?"; exit 1; }
+echo "$frames"
+printf '%s\n' "$frames" | grep -q '^{"mesh": "CesiumMan", "vertices": 3273, "frames": 2}$' \
+  || { echo "FAIL: unexpected --frames output"; exit 1; }
+if "$BENCH" --frames NoSuchMesh 2 >/dev/null 2>&1; then echo "FAIL: --frames took an unknown mesh"; exit 1; fi

@@ -26,6 +26,9 @@
 //   skelform-bench --crowd N [--smoke]          N instances of CesiumMan_loop1 (~10K vertices),
 //                                               each on its own pose, over every core: wall ms
 //                                               of a whole frame, skelform and lbs_optimised
+//   skelform-bench --frames MESH N              N evaluations of skelform on MESH (CesiumMan,
+//                                               CesiumMan_loop1, CesiumMan_loop2, Horse), untimed:
+//                                               for a profiler (bench/instructions.sh)
 //   skelform-bench --markdown [--runs N]        the README's speed table (CPU time, the median
 //                                               of N runs, ratios against lbs_optimised)
 //   skelform-bench --json [--smoke] [--cpu] [--runs N]  one JSON line per mesh:
@@ -595,6 +598,34 @@ int run_crowd(size_t count, bool smoke) {
   return 0;
 }
 
+// --frames MESH N: N evaluations of `skelform` on one of the bench's meshes, frame after frame
+// from its animation's first pose, and one line out: for a profiler. bench/instructions.sh
+// runs it under callgrind with N and with 1 frame, and the difference over N − 1 is the
+// instructions of a warm evaluation (setup and the first, converging one cancel out).
+int run_frames(const std::string& mesh, long frames) {
+  const MeshCase* chosen = nullptr;
+  for (const MeshCase& mesh_case : kMeshes)
+    if (mesh == mesh_case.name) chosen = &mesh_case;
+  if (mesh == kCrowdMesh.name) chosen = &kCrowdMesh;
+  if (!chosen) {
+    std::fprintf(stderr,
+                 "skelform-bench: error: --frames: unknown mesh %s (CesiumMan, CesiumMan_loop1, "
+                 "CesiumMan_loop2, Horse)\n",
+                 mesh.c_str());
+    return 1;
+  }
+  if (!skelform::bench::cesium_man_path() || !available(*chosen)) {
+    std::fprintf(stderr, "skelform-bench: skipped: %s not found under %s (set SKELFORM_DATA_DIR)\n",
+                 chosen->data_file ? chosen->data_file : "CesiumMan/CesiumMan.glb",
+                 skelform::bench::data_dir().string().c_str());
+    return 0;
+  }
+  Scene& s = scene(*chosen);
+  for (long f = 0; f < frames; ++f) s.evaluate(Method::skelform, size_t(f));
+  std::printf("{\"mesh\": \"%s\", \"vertices\": %zu, \"frames\": %ld}\n", chosen->name, s.vertex_count(), frames);
+  return 0;
+}
+
 void register_benchmarks() {
   for (const MeshCase& mesh_case : kMeshes)
     for (Method method : kMethods) {
@@ -623,7 +654,8 @@ void register_benchmarks() {
 int main(int argc, char** argv) {
   bool json = false, markdown = false, smoke = false, cpu_time = false;
   int runs = 1;
-  long crowd = 0;
+  long crowd = 0, frames = 0;
+  std::string frames_mesh;
   std::vector<char*> passed{argv[0]};
   for (int i = 1; i < argc; ++i) {
     if (std::strcmp(argv[i], "--json") == 0)
@@ -649,10 +681,25 @@ int main(int argc, char** argv) {
         std::fprintf(stderr, "skelform-bench: error: --crowd takes 1 to 10000 instances, got %s\n", argv[i]);
         return 1;
       }
+    } else if (std::strcmp(argv[i], "--frames") == 0 && i + 2 < argc) {
+      frames_mesh = argv[++i];
+      char* end = nullptr;
+      frames = std::strtol(argv[++i], &end, 10);
+      if (*end != '\0' || frames < 1 || frames > 100000) {
+        std::fprintf(stderr, "skelform-bench: error: --frames MESH N takes 1 to 100000 frames, got %s\n", argv[i]);
+        return 1;
+      }
     } else
       passed.push_back(argv[i]);
   }
   try {
+    if (frames > 0) {
+      if (passed.size() > 1 || json || markdown || cpu_time || runs != 1 || smoke || crowd > 0) {
+        std::fprintf(stderr, "skelform-bench: error: --frames MESH N takes no other option\n");
+        return 1;
+      }
+      return run_frames(frames_mesh, frames);
+    }
     if (crowd > 0) {
       if (passed.size() > 1 || json || markdown || cpu_time || runs != 1) {
         std::fprintf(stderr, "skelform-bench: error: --crowd N takes only --smoke\n");
