@@ -217,7 +217,9 @@ class Grid {
   // A candidate's box is the one gather() stored: only v moves until the next gather, and a
   // triangle around v (whose stored box may be stale) shares v with every triangle of its
   // star, so meet() never counts it.
-  uint32_t pairs_around(uint32_t v, glm::vec3* push) const {
+  // `stop_above`: the count may stop once it exceeds this (the caller asks only whether it
+  // does; pass UINT32_MAX to count every pair).
+  uint32_t pairs_around(uint32_t v, glm::vec3* push, uint32_t stop_above = UINT32_MAX) const {
     uint32_t count = 0;
     const size_t candidates = ws_.candidates.size();
     const float* boxes = ws_.candidate_boxes.data();
@@ -233,6 +235,7 @@ class Grid {
         if (!meet(s, t)) continue;
         ++count;
         if (push) add_push(v, t, *push);
+        if (count > stop_above) return count;
       }
     }
     return count;
@@ -517,7 +520,7 @@ ContactStats resolve_contacts(const ContactMesh& mesh, float scale, glm::vec3* d
       bool accepted = false;
       for (int attempt = 0; attempt < 3 && !accepted; ++attempt, step *= 0.5f) {
         x[v] = old + step;
-        accepted = grid.pairs_around(v, nullptr) <= before;
+        accepted = grid.pairs_around(v, nullptr, before) <= before;
       }
       if (spent()) return stats;
       if (!accepted) {
