@@ -54,6 +54,7 @@ GuardWorkspace make_guard_workspace(const ContactMesh& mesh, const AllocatorRef&
   if (mesh.closed) {
     ws.volume_base.resize(mesh.vertex_count);
     ws.volume_delta.resize(mesh.vertex_count);
+    ws.volume_norm.resize(mesh.vertex_count);
   }
   return ws;
 }
@@ -419,29 +420,39 @@ void volume_cubic(const ContactMesh& mesh, const glm::dvec3* base, const glm::dv
     const uint32_t* q = mesh.triangles.data() + 3 * size_t(t);
     const glm::dvec3 &a = base[q[0]], &b = base[q[1]], &c = base[q[2]];
     const glm::dvec3 &da = delta[q[0]], &db = delta[q[1]], &dc = delta[q[2]];
-    // det(a + mα, b + mβ, c + mγ) = (a + mα)·((b + mβ) × (c + mγ)), the cross product's
-    // coefficients first: four cross products and six dot products.
-    const glm::dvec3 k0 = glm::cross(b, c), k1 = glm::cross(db, c) + glm::cross(b, dc), k2 = glm::cross(db, dc);
+    // det(a + mα, b + mβ, c + mγ) = (a + mα)·((b + mβ) × (c + mγ)) expanded, each determinant
+    // x·(y × z), with the four cross products it needs computed once: the sums of eight
+    // determinants, bit for bit, in four cross and eight dot products.
+    const glm::dvec3 k0 = glm::cross(b, c), c1 = glm::cross(db, c), c2 = glm::cross(b, dc), k2 = glm::cross(db, dc);
     v0 += glm::dot(a, k0);
-    v1 += glm::dot(da, k0) + glm::dot(a, k1);
-    v2 += glm::dot(da, k1) + glm::dot(a, k2);
+    v1 += glm::dot(da, k0) + glm::dot(a, c1) + glm::dot(a, c2);
+    v2 += glm::dot(da, c1) + glm::dot(da, c2) + glm::dot(a, k2);
     v3 += glm::dot(da, k2);
   }
   v[0] = v0 / 6.0, v[1] = v1 / 6.0, v[2] = v2 / 6.0, v[3] = v3 / 6.0;
 }
 
-// Whether the volume at m = 1 (base + delta) is no further from `target` than at m = 0 (base):
-// two determinants per triangle where the cubic takes ten products. The arrays as volume_cubic
-// reads them.
-bool volume_within(const ContactMesh& mesh, const glm::dvec3* base, const glm::dvec3* delta, double target) {
-  double at_zero = 0.0, at_one = 0.0;
+// Whether the volume at m = 1 (base + delta) is surely no further from `target` than at m = 0
+// (base), in two determinants per triangle where the cubic takes eight: by more than the
+// rounding that separates this V(1) from the cubic's v[0] + v[1] + v[2] + v[3] (both sums of
+// the triangles' determinants, each within a few units of double rounding of the product of
+// its corners' L1 norms, the sums within their count's; bounded by 4(T + 32)·2^-52 times the
+// sum of those products). So where it says yes, the cubic's test (volume_share) would say yes
+// too; elsewhere the caller expands the cubic and decides as before. V(0) is the cubic's v[0]
+// bit for bit.
+// `norm` per welded vertex: |base|₁ + |delta|₁.
+bool volume_within(const ContactMesh& mesh, const glm::dvec3* base, const glm::dvec3* delta, const double* norm,
+                   double target) {
+  double at_zero = 0.0, at_one = 0.0, scale = 0.0;
   for (uint32_t t = 0; t < mesh.triangle_count; ++t) {
     const uint32_t* q = mesh.triangles.data() + 3 * size_t(t);
     const glm::dvec3 &a = base[q[0]], &b = base[q[1]], &c = base[q[2]];
     at_zero += glm::dot(a, glm::cross(b, c));
     at_one += glm::dot(a + delta[q[0]], glm::cross(b + delta[q[1]], c + delta[q[2]]));
+    scale += norm[q[0]] * norm[q[1]] * norm[q[2]];
   }
-  return std::fabs(at_one / 6.0 - target) <= std::fabs(at_zero / 6.0 - target);
+  const double rounding = 4.0 * (double(mesh.triangle_count) + 32.0) * std::ldexp(1.0, -52) * scale;
+  return std::fabs(at_one / 6.0 - target) + rounding <= std::fabs(at_zero / 6.0 - target);
 }
 
 // The volume bounded by x(μ) = L + μ·c at the representatives, c the guarded correction, as a
@@ -463,8 +474,12 @@ bool volume_polynomial(const Deformable& d, const ContactMesh& mesh, const Dense
     const double s = double(weight[r]) * double(ws.factor[w]);
     ws.volume_base[w] = glm::dvec3(lbs.positions[r]) - centre;
     ws.volume_delta[w] = s * (glm::dvec3(skelform.positions[r]) - glm::dvec3(lbs.positions[r]));
+    const glm::dvec3 b = glm::abs(ws.volume_base[w]), c = glm::abs(ws.volume_delta[w]);
+    ws.volume_norm[w] = b.x + b.y + b.z + c.x + c.y + c.z;
   }
-  if (within_target && volume_within(mesh, ws.volume_base.data(), ws.volume_delta.data(), *within_target)) return false;
+  if (within_target &&
+      volume_within(mesh, ws.volume_base.data(), ws.volume_delta.data(), ws.volume_norm.data(), *within_target))
+    return false;
   volume_cubic(mesh, ws.volume_base.data(), ws.volume_delta.data(), v);
   return true;
 }

@@ -89,7 +89,8 @@ struct GuardWorkspace {
         pair_added(a),
         gradient(a),
         volume_base(a),
-        volume_delta(a) {}
+        volume_delta(a),
+        volume_norm(a) {}
   Array<float> factor;             // λ per welded vertex
   Array<glm::vec3> positions;      // x per welded vertex
   Array<uint8_t> moved;            // per welded vertex: x differs from L
@@ -102,10 +103,12 @@ struct GuardWorkspace {
   Array<uint32_t> lowered_list;    // the vertices whose λ the ramp lowered
   Array<uint8_t> tested;           // per triangle: in this round's list
   Array<uint32_t> test_list;       // the triangles this round tests
-  SlotBoxes boxes;                 // per triangle (by hierarchy slot): its box at x
-  Array<float> node_boxes;         // ContactMesh::hierarchy refitted to boxes, then grown around them
-  Array<uint8_t> node_flags;       // per node: it holds a triangle of the first round
-  Array<LeafLanes> leaf_flags;     // per leaf node: its lanes holding one
+  // Per triangle (by hierarchy slot): its box at x. The contact pass (FirstRoundHook) grows
+  // those around the vertices it moves; the guard sets them again there (search_after_moves).
+  SlotBoxes boxes;
+  Array<float> node_boxes;      // ContactMesh::hierarchy refitted to boxes, then grown around them
+  Array<uint8_t> node_flags;    // per node: it holds a triangle of the first round
+  Array<LeafLanes> leaf_flags;  // per leaf node: its lanes holding one
   // The first round's intersecting pairs (s << 32 | t, s < t), but those the model has at rest,
   // and whether LBS lacks each, when a FirstRoundHook wants them; pairs_complete is false when
   // they outnumbered the capacity (kGuardPairsPerTriangle per triangle), and the hook is then
@@ -118,6 +121,7 @@ struct GuardWorkspace {
   // direction (volume_cubic), in double.
   Array<glm::dvec3> volume_base;
   Array<glm::dvec3> volume_delta;
+  Array<double> volume_norm;  // |base|₁ + |delta|₁: the scale of volume_within's rounding bound
   PairBudget budget;          // this evaluation's candidate pairs
   bool over_budget = false;   // the last evaluation ran out of it (and is LBS)
   uint32_t rounds = 0;        // of the last evaluation
@@ -136,7 +140,8 @@ constexpr uint32_t kGuardPairsPerTriangle = 1;
 // guard then keeps the verdicts of the pairs none of whose corners moved, and searches again
 // only around the moved ones, with an allowance of the work budget of its own: the guard's
 // outcome is that of a whole first round over the moved result (except at the edge of the
-// work budget, which the two ways spend differently).
+// work budget, which the two ways spend differently). It may grow the boxes of the triangles
+// around the vertices it returns (ContactPairs), and leaves every other box as it found it.
 class FirstRoundHook {
  public:
   virtual const Array<uint32_t>& after_first_search(const ContactPairs& pairs) = 0;
