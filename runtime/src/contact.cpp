@@ -80,6 +80,20 @@ class Grid {
     return true;
   }
 
+  // With a shared search, the boxes of v's triangles set to where they are now (after the pass
+  // took its moves back; their node boxes may stay grown: they still hold them).
+  void reset_boxes(uint32_t v) {
+    if (!shared_) return;
+    const TriangleHierarchy& h = *shared_->hierarchy;
+    for (uint32_t k = mesh_.incident_offsets[v]; k < mesh_.incident_offsets[v + 1]; ++k) {
+      const uint32_t t = mesh_.incident[k];
+      glm::vec3 a, b;
+      box(t, a, b);
+      const float exact[6] = {a.x, a.y, a.z, b.x, b.y, b.z};
+      shared_->boxes->set(h.slot[t], exact);
+    }
+  }
+
   // Welded vertex v has moved: with a shared search, its triangles' boxes grow to hold where
   // they are now, and their node boxes with them, so that a gather needs no pad for it. (The
   // pass's own grid pads its gathers by the cap instead.)
@@ -499,6 +513,15 @@ ContactStats resolve_contacts(const ContactMesh& mesh, float scale, glm::vec3* d
   // before it, sweep after sweep while some vertex moves. Its total motion stays within the
   // grid's pad. (Not more rather than fewer: a row of vertices crossing another sheet clears
   // only once all of them are out, and each alone changes no count; docs/tuning.md.)
+  // Out of budget mid-way, the pass moves nothing: its moves are taken back, and with them the
+  // growth of a shared search's boxes (Grid::moved), which the guard then reads as its own.
+  auto give_up = [&] {
+    for (uint32_t v : ws.active)
+      if (ws.state[v] & kMoved) x[v] = ws.start[v];
+    for (uint32_t v : ws.active)
+      if (ws.state[v] & kMoved) grid.reset_boxes(v);
+    return stats;
+  };
   for (uint32_t sweep = 0; sweep < kContactSweeps; ++sweep) {
     bool any = false;
     for (uint32_t v : ws.active) {
@@ -506,7 +529,7 @@ ContactStats resolve_contacts(const ContactMesh& mesh, float scale, glm::vec3* d
       grid.gather(v, 0.0f);
       glm::vec3 push(0.0f);
       const uint32_t before = grid.pairs_around(v, &push);
-      if (spent()) return stats;
+      if (spent()) return give_up();
       if (before == 0 || !(glm::dot(push, push) > 0.0f)) continue;
       glm::vec3 total = x[v] + push - ws.start[v];
       const float length = glm::length(total);
@@ -522,7 +545,10 @@ ContactStats resolve_contacts(const ContactMesh& mesh, float scale, glm::vec3* d
         x[v] = old + step;
         accepted = grid.pairs_around(v, nullptr, before) <= before;
       }
-      if (spent()) return stats;
+      if (spent()) {
+        x[v] = old;
+        return give_up();
+      }
       if (!accepted) {
         x[v] = old;
         continue;

@@ -138,9 +138,11 @@ struct ContactBlend {
 // ContactMesh::rest_pairs), are the pass's detection, and
 // its hierarchy, with the node and triangle boxes at the positions the pass starts from, serves
 // the pass's gathers.
-// The pass keeps the boxes holding every triangle as it moves vertices (a moved vertex's
-// triangles' boxes and their node boxes grow around where they are now), so its gathers query
-// the hierarchy with no allowance for motion; the boxes stay valid for the guard after it.
+// The pass writes those boxes: as it moves vertices it keeps them holding every triangle (a
+// moved vertex's triangles' boxes and their node boxes grow around where they are now), so its
+// gathers query the hierarchy with no allowance for motion. Only the triangles around the
+// vertices it lists as moved keep grown boxes (a pass that runs out of budget takes its moves
+// and their boxes back); the node boxes still hold every triangle's box.
 struct ContactPairs {
   const uint64_t* keys = nullptr;
   size_t count = 0;
@@ -161,8 +163,8 @@ constexpr float kContactMinWeight = 1e-6f;
 // blend lands where the pass put it (K = L + (x − L) / w): a vertex that takes a tenth of
 // skelform's result still gets the whole of its push. Without one, it resolves the contacts of
 // K and any vertex may move. With `detected`, its search stands in for the pass's grid;
-// without, the pass needs its grid (add_contact_grid) and does nothing if it has none. Lists the
-// moved welded vertices in workspace.moved.
+// without, the pass needs its grid (add_contact_grid) and does nothing if it has none, and the
+// pass writes its boxes (ContactPairs). Lists the moved welded vertices in workspace.moved.
 ContactStats resolve_contacts(const ContactMesh& mesh, float scale, glm::vec3* dense_positions,
                               uint32_t dense_vertex_count, ContactWorkspace& workspace,
                               const ContactBlend& blend = ContactBlend(), const ContactPairs* detected = nullptr);
