@@ -114,7 +114,8 @@ TEST_CASE("every skinned model of the data set bakes and reproduces its rest pos
                               << ", rest error " << error << ", skeleton inside " << r.skeleton_inside);
     CHECK(error <= 1e-5);
     // The share of vertices skelform works for: none rigidly weighted (one joint holds 99.9 % of
-    // the skin), every one whose dominant joint holds 95 % or less.
+    // the skin), every one whose dominant joint holds 95 % or less (each bound widened by 1e-5,
+    // as the rule works in float and this count in double).
     size_t blended = 0, fully_blended = 0;
     for (size_t v = 0; v < input.positions.size(); ++v) {
       std::map<uint16_t, double> share;
@@ -127,8 +128,8 @@ TEST_CASE("every skinned model of the data set bakes and reproduces its rest pos
           }
       double largest = 0.0;
       for (const auto& joint : share) largest = std::max(largest, joint.second);
-      if (total > 0.0 && largest / total < 0.999) ++blended;
-      if (total > 0.0 && largest / total <= 0.95) ++fully_blended;
+      if (total > 0.0 && largest / total < 0.999 + 1e-5) ++blended;
+      if (total > 0.0 && largest / total <= 0.95 - 1e-5) ++fully_blended;
     }
     const double n = double(input.positions.size());
     CHECK(r.skelform_share <= double(blended) / n + 1e-12);
