@@ -80,40 +80,14 @@ class Grid {
     return true;
   }
 
-  // With a shared search, the boxes of v's triangles set to where they are now (after the pass
-  // took its moves back; their node boxes may stay grown: they still hold them).
-  void reset_boxes(uint32_t v) {
-    if (!shared_) return;
-    const TriangleHierarchy& h = *shared_->hierarchy;
-    for (uint32_t k = mesh_.incident_offsets[v]; k < mesh_.incident_offsets[v + 1]; ++k) {
-      const uint32_t t = mesh_.incident[k];
-      glm::vec3 a, b;
-      box(t, a, b);
-      const float exact[6] = {a.x, a.y, a.z, b.x, b.y, b.z};
-      shared_->boxes->set(h.slot[t], exact);
-    }
-  }
-
   // Welded vertex v has moved: with a shared search, its triangles' boxes grow to hold where
   // they are now, and their node boxes with them, so that a gather needs no pad for it. (The
   // pass's own grid pads its gathers by the cap instead.)
-  void moved(uint32_t v) {
-    if (!shared_) return;
-    const TriangleHierarchy& h = *shared_->hierarchy;
-    for (uint32_t k = mesh_.incident_offsets[v]; k < mesh_.incident_offsets[v + 1]; ++k) {
-      const uint32_t t = mesh_.incident[k];
-      glm::vec3 a, b;
-      box(t, a, b);
-      float grown[6];
-      shared_->boxes->get(h.slot[t], grown);
-      for (int c = 0; c < 3; ++c) {
-        grown[c] = std::min(grown[c], a[c]);
-        grown[3 + c] = std::max(grown[3 + c], b[c]);
-      }
-      shared_->boxes->set(h.slot[t], grown);
-      grow_triangle_hierarchy(h, h.slot[t], grown, shared_->node_boxes);
-    }
-  }
+  void moved(uint32_t v) { set_boxes(v, true); }
+
+  // With a shared search, the boxes of v's triangles set to where they are now (after the pass
+  // took its moves back; their node boxes may stay grown: they still hold them).
+  void reset_boxes(uint32_t v) { set_boxes(v, false); }
 
   // Buckets every triangle by its box now. `pad` is how far a vertex may move from here during
   // the pass: gather() looks that much further. False when a position is not finite (the pass
@@ -256,6 +230,26 @@ class Grid {
   }
 
  private:
+  // The shared search's boxes of v's triangles: their boxes now, grown over the stored ones
+  // (with their node boxes) or in their place.
+  void set_boxes(uint32_t v, bool grow) {
+    if (!shared_) return;
+    const TriangleHierarchy& h = *shared_->hierarchy;
+    for (uint32_t k = mesh_.incident_offsets[v]; k < mesh_.incident_offsets[v + 1]; ++k) {
+      const uint32_t t = mesh_.incident[k];
+      glm::vec3 a, b;
+      box(t, a, b);
+      float stored[6] = {a.x, a.y, a.z, b.x, b.y, b.z};
+      if (grow) {
+        float old[6];
+        shared_->boxes->get(h.slot[t], old);
+        grow_box(stored, old);
+      }
+      shared_->boxes->set(h.slot[t], stored);
+      if (grow) grow_triangle_hierarchy(h, h.slot[t], stored, shared_->node_boxes);
+    }
+  }
+
   // Every triangle's box and unit normal at the current positions; returns the sum of the
   // boxes' largest extents.
   double store_boxes_and_normals() {
