@@ -3,7 +3,8 @@
 // gives) ends the search at pair_visit_budget (triangle_bvh.h) candidate pairs and outputs
 // exactly LBS; a tangle within the budget is resolved as always, to no pair LBS lacks. The
 // contact mesh's rest-pair search (at load) has the same bound, and the contact pass a
-// multiple of it.
+// multiple of it; a pass that runs out of it on the guard's search gives the search's boxes
+// back as it found them.
 #include "asset.h"
 #include "brute_force_pairs.h"
 #include "contact.h"
@@ -16,6 +17,7 @@
 #include <glm/vec3.hpp>
 #include <glm/vec4.hpp>
 
+#include <array>
 #include <cstdint>
 #include <random>
 #include <vector>
@@ -138,4 +140,61 @@ TEST_CASE("contact pass: a tangle beyond the work budget stops and leaves the ou
   CHECK(ws.budget.left == 0);
   CHECK(stats.moved == 0);
   CHECK(positions == tangle.thrown);
+}
+
+TEST_CASE("contact pass: on the guard's search, a pass beyond the budget gives the search's boxes back") {
+  // Inside the guard the pass grows the search's triangle boxes around the vertices it moves
+  // (ContactPairs); when it runs out of budget it takes its moves back, and must take those
+  // boxes back with them: the guard reads them as the triangles' boxes at x.
+  const uint32_t count = 1200;
+  const Tangle tangle(count);
+  REQUIRE(!tangle.mesh.tangled_at_rest);
+  const TriangleHierarchy& h = tangle.mesh.hierarchy;
+  auto box_at = [&](uint32_t t, float* b) {
+    const glm::vec3* p = tangle.thrown.data() + 3 * size_t(t);  // separate triangles: corners 3t..3t+2
+    const glm::vec3 lo = glm::min(glm::min(p[0], p[1]), p[2]), hi = glm::max(glm::max(p[0], p[1]), p[2]);
+    b[0] = lo.x, b[1] = lo.y, b[2] = lo.z, b[3] = hi.x, b[4] = hi.y, b[5] = hi.z;
+  };
+  SlotBoxes boxes(AllocatorRef{});
+  boxes.resize(h);
+  for (uint32_t slot = 0; slot < count; ++slot) {
+    float b[6];
+    box_at(h.order[slot], b);
+    boxes.set(slot, b);
+  }
+  std::vector<float> node_boxes(6 * h.nodes.size());
+  refit_triangle_hierarchy(h, boxes, node_boxes.data());
+  // The search's pairs: every intersecting pair (LBS, the rest grid, has none).
+  std::vector<std::array<uint32_t, 3>> soup(count);
+  for (uint32_t s = 0; s < count; ++s) soup[s] = {3 * s, 3 * s + 1, 3 * s + 2};
+  std::vector<uint64_t> keys;
+  for (const auto& pair :
+       skelform::test::brute_force_pairs(soup, [&](uint32_t v) { return glm::dvec3(tangle.thrown[v]); }))
+    keys.push_back(pair_key(pair.first, pair.second));
+  REQUIRE(keys.size() > 10000);
+  const ContactPairs search{keys.data(), keys.size(), &h, node_boxes.data(), &boxes};
+  ContactWorkspace ws = make_contact_workspace(tangle.mesh, AllocatorRef{});
+  std::vector<glm::vec3> positions = tangle.thrown;
+  const ContactStats stats =
+      resolve_contacts(tangle.mesh, 1.0f, positions.data(), uint32_t(positions.size()), ws, ContactBlend(), &search);
+  CHECK(stats.over_budget);
+  CHECK(stats.moved == 0);
+  CHECK(positions == tangle.thrown);
+  size_t grown = 0;  // slot boxes that are not the triangle's box at x
+  for (uint32_t slot = 0; slot < count; ++slot) {
+    float expected[6], got[6];
+    box_at(h.order[slot], expected);
+    boxes.get(slot, got);
+    for (int k = 0; k < 6; ++k) grown += got[k] != expected[k] ? 1 : 0;
+  }
+  CHECK(grown == 0);
+  // Every node box still holds its triangles' boxes.
+  size_t outside = 0;
+  for (uint32_t slot = 0; slot < count; ++slot) {
+    float b[6];
+    boxes.get(slot, b);
+    const float* node = node_boxes.data() + 6 * size_t(h.leaf[slot]);
+    for (int k = 0; k < 3; ++k) outside += (b[k] < node[k] || b[3 + k] > node[3 + k]) ? 1 : 0;
+  }
+  CHECK(outside == 0);
 }
