@@ -7,7 +7,7 @@
 #
 # For each mesh: skelform-bench --frames MESH N under callgrind, N frames and 1 frame; the
 # difference over N − 1 is one warm evaluation (setup and the first, converging one cancel).
-# Needs valgrind and the shared data (SKELFORM_DATA_DIR); about two minutes.
+# Needs valgrind and the shared data (SKELFORM_DATA_DIR); about half a minute.
 set -euo pipefail
 bench=${1:-build/bench/skelform-bench}
 command -v valgrind >/dev/null || { echo "instructions.sh: valgrind not found (apt install valgrind)" >&2; exit 1; }

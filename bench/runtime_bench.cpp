@@ -140,6 +140,16 @@ bool available(const MeshCase& mesh_case) {
   return !mesh_case.data_file || std::filesystem::exists(skelform::bench::data_dir() / mesh_case.data_file);
 }
 
+// Why a run must skip: "FILE not found under DIR (set SKELFORM_DATA_DIR)" for CesiumMan, which
+// every run needs, or else for `mesh_case`'s file; empty when the data is there.
+std::string missing_data(const MeshCase* mesh_case = nullptr) {
+  const char* file = !skelform::bench::cesium_man_path()   ? "CesiumMan/CesiumMan.glb"
+                     : mesh_case && !available(*mesh_case) ? mesh_case->data_file
+                                                           : nullptr;
+  if (!file) return {};
+  return std::string(file) + " not found under " + skelform::bench::data_dir().string() + " (set SKELFORM_DATA_DIR)";
+}
+
 void check(sf_result result, const char* call, const sf_instance* instance = nullptr) {
   if (result != SF_OK)
     throw std::runtime_error(std::string(call) + ": " + sf_result_string(result) +
@@ -444,10 +454,8 @@ std::string machine_name() {
 // `runs` repetitions of median_ms per mesh, and the median of each method over them: one JSON
 // line per mesh, or (markdown) the README's table, every ratio against lbs_optimised.
 int run_json(bool smoke, bool cpu_time, int runs, bool markdown) {
-  if (!skelform::bench::cesium_man_path()) {
-    std::fprintf(stderr,
-                 "skelform-bench: skipped: CesiumMan/CesiumMan.glb not found under %s (set SKELFORM_DATA_DIR)\n",
-                 skelform::bench::data_dir().string().c_str());
+  if (const std::string missing = missing_data(); !missing.empty()) {
+    std::fprintf(stderr, "skelform-bench: skipped: %s\n", missing.c_str());
     return 0;
   }
   const int samples = smoke ? 5 : 101;
@@ -572,10 +580,8 @@ class Crowd {
 };
 
 int run_crowd(size_t count, bool smoke) {
-  if (!skelform::bench::cesium_man_path()) {
-    std::fprintf(stderr,
-                 "skelform-bench: skipped: CesiumMan/CesiumMan.glb not found under %s (set SKELFORM_DATA_DIR)\n",
-                 skelform::bench::data_dir().string().c_str());
+  if (const std::string missing = missing_data(); !missing.empty()) {
+    std::fprintf(stderr, "skelform-bench: skipped: %s\n", missing.c_str());
     return 0;
   }
   const unsigned threads = std::max(1u, std::thread::hardware_concurrency());
@@ -614,10 +620,8 @@ int run_frames(const std::string& mesh, long frames) {
                  mesh.c_str());
     return 1;
   }
-  if (!skelform::bench::cesium_man_path() || !available(*chosen)) {
-    std::fprintf(stderr, "skelform-bench: skipped: %s not found under %s (set SKELFORM_DATA_DIR)\n",
-                 chosen->data_file ? chosen->data_file : "CesiumMan/CesiumMan.glb",
-                 skelform::bench::data_dir().string().c_str());
+  if (const std::string missing = missing_data(chosen); !missing.empty()) {
+    std::fprintf(stderr, "skelform-bench: skipped: %s\n", missing.c_str());
     return 0;
   }
   Scene& s = scene(*chosen);
@@ -631,10 +635,8 @@ void register_benchmarks() {
     for (Method method : kMethods) {
       const std::string name = std::string("evaluate/") + mesh_case.name + "/" + method_name(method);
       benchmark::RegisterBenchmark(name.c_str(), [mesh_case, method](benchmark::State& state) {
-        if (!skelform::bench::cesium_man_path() || !available(mesh_case)) {
-          state.SkipWithError((std::string(mesh_case.data_file ? mesh_case.data_file : "CesiumMan/CesiumMan.glb") +
-                               " not found under " + skelform::bench::data_dir().string() + " (set SKELFORM_DATA_DIR)")
-                                  .c_str());
+        if (const std::string missing = missing_data(&mesh_case); !missing.empty()) {
+          state.SkipWithError(missing.c_str());
           return;
         }
         Scene& s = scene(mesh_case);
