@@ -474,6 +474,7 @@ bool volume_polynomial(const Deformable& d, const ContactMesh& mesh, const Dense
     const double s = double(weight[r]) * double(ws.factor[w]);
     ws.volume_base[w] = glm::dvec3(lbs.positions[r]) - centre;
     ws.volume_delta[w] = s * (glm::dvec3(skelform.positions[r]) - glm::dvec3(lbs.positions[r]));
+    if (!within_target) continue;  // only volume_within reads the norms
     const glm::dvec3 b = glm::abs(ws.volume_base[w]), c = glm::abs(ws.volume_delta[w]);
     ws.volume_norm[w] = b.x + b.y + b.z + c.x + c.y + c.z;
   }
