@@ -128,6 +128,7 @@ struct Grid {
   int size = 1;             // cells per axis
   int ring[3] = {1, 1, 1};  // ⌈max d / cell⌉ per axis, at least 1 (the paper's 3×3×3)
   float max_radius = 0.0f;  // largest d
+  float max_rr = 0.0f;      // largest d² in the grid
 };
 
 // Buckets the skeletal vertices into a grid of size³ cells over the bounding box of skeleton
@@ -140,6 +141,13 @@ Grid build_grid(const FairingTopology& topo, const glm::vec3* skeletal, const fl
 void intersection_step(const FairingTopology& topo, const Grid& grid, const glm::vec3* skeletal, const float* radius,
                        glm::vec3* x, float step, bool semi_implicit, bool refresh_field, const Targets& targets,
                        FairingWorkspace& ws);
+
+// f(x) as flow (5)'s grid search finds it (for tests): the smallest g(x, S) = |x − S|² − d_S²
+// over the balls in the cells within grid.ring of x's cell (further out only when those hold
+// none) other than skeletal vertex `exclude` (UINT32_MAX: none), the smaller index on a tie;
+// its ball in `minimiser` (UINT32_MAX and +inf when there is none).
+float grid_field(const Grid& grid, const glm::vec3& x, const FairingWorkspace& ws, uint32_t exclude,
+                 uint32_t& minimiser);
 
 // FairingRest::gap: |f − g|(M_rest) per vertex into `gap` (zeroed by the caller), on a grid of
 // `size` cells per axis; left 0 where the own ball is the minimiser, at fixed vertices and

@@ -90,13 +90,19 @@ Grid build_grid(const FairingTopology& topo, const glm::vec3* skeletal, const fl
   }
   for (size_t c = cell_count; c > 0; --c) ws.cell_offsets[c] = ws.cell_offsets[c - 1];
   ws.cell_offsets[0] = 0;
-  // The balls in cell order, structure of arrays: slot_minimum's candidates side by side.
+  // The balls in cell order, structure of arrays: slot_minimum's candidates side by side; and
+  // per row of cells along x the largest d² (field_at's bound on what a row can hold).
+  std::fill(ws.row_rr_max.begin(), ws.row_rr_max.begin() + size_t(size) * size,
+            -std::numeric_limits<float>::infinity());
   for (uint32_t k = 0; k < ws.cell_offsets[cell_count]; ++k) {
     const uint32_t s = ws.cell_vertices[k];
     ws.cell_x[k] = skeletal[s].x;
     ws.cell_y[k] = skeletal[s].y;
     ws.cell_z[k] = skeletal[s].z;
     ws.cell_rr[k] = radius[s] * radius[s];
+    float& largest = ws.row_rr_max[ws.vertex_cell[s] / uint32_t(size)];
+    largest = std::max(largest, ws.cell_rr[k]);
+    grid.max_rr = std::max(grid.max_rr, ws.cell_rr[k]);
   }
   return grid;
 }
@@ -149,6 +155,55 @@ void slot_minimum(const glm::vec3& x, const FairingWorkspace& ws, uint32_t begin
 #endif
 }
 
+// field_at's bound. A ball that build_grid put in cell k of an axis lies within that cell's
+// span, in cells from the origin [k, k + 1), widened by kCellSlack cells for the rounding of
+// cell_coordinate (the first and last cells reach to infinity: they hold what it clamps). Its g
+// from x is then at least cell²·(gap_x² + gap_y² + gap_z²) − (the largest d² of its row of
+// cells), each gap the distance in cells from x to the widened span along that axis.
+constexpr float kCellSlack = 1e-3f;
+// The bound and g are both computed in float: a cell is skipped only where its bound exceeds
+// the best g by more than this fraction of (the farthest squared distance in the neighbourhood
+// plus the largest d²), far above their rounding (a few units of 2^-24 of those magnitudes).
+constexpr float kBoundRounding = 4e-6f;
+
+// The gap, in cells, from coordinate p (in cells from the origin) to cell k of an axis of n.
+inline float cell_gap(float p, int k, int n) {
+  float gap = 0.0f;
+  if (k > 0) gap = std::max(gap, (static_cast<float>(k) - kCellSlack) - p);
+  if (k < n - 1) gap = std::max(gap, p - (static_cast<float>(k + 1) + kCellSlack));
+  return gap;
+}
+
+// kBoundRounding's allowance for the neighbourhood of cells [x0, x1] × [y0, y1] × [z0, z1]
+// around p (in cells): a cell beyond the farthest corner, squared, plus the largest d².
+inline float bound_tolerance(float px, int x0, int x1, float py, int y0, int y1, float pz, int z0, int z1,
+                             float cell_squared, float max_rr) {
+  auto farthest = [](float p, int first, int last) {
+    return std::max(std::fabs(p - static_cast<float>(first)), std::fabs(p - static_cast<float>(last + 1))) + 1.0f;
+  };
+  const float fx = farthest(px, x0, x1), fy = farthest(py, y0, y1), fz = farthest(pz, z0, z1);
+  return kBoundRounding * (cell_squared * (fx * fx + fy * fy + fz * fz) + max_rr);
+}
+
+// The cells [first, last] of a row, within [x0, x1], whose gap along x from p may be at most
+// reach = sqrt(allowed) cells (allowed: the squared gap in cells that a ball of the row may
+// have and still lower the best g): from ⌊p − reach⌋ − 1 to ⌊p + reach⌋ + 1, which holds every
+// cell k with k + 1 + kCellSlack ≥ p − reach and k − kCellSlack ≤ p + reach. Empty (first >
+// last) when allowed < 0; the whole [x0, x1] when it is not finite or spans the axis.
+inline void row_span(float p, float allowed, int x0, int x1, int n, int& first, int& last) {
+  first = x0, last = x1;
+  if (!(allowed >= 0.0f)) {
+    if (allowed < 0.0f) first = 1, last = 0;
+    return;
+  }
+  const float reach = std::sqrt(allowed);
+  if (!(reach < static_cast<float>(n))) return;
+  // Beyond the axis's ends the end cells hold what is there: p clamped to [0, n] has no larger gaps.
+  const float q = std::min(std::max(p, 0.0f), static_cast<float>(n));
+  first = std::max(x0, static_cast<int>(std::floor(q - reach)) - 1);
+  last = std::min(x1, static_cast<int>(std::floor(q + reach)) + 1);
+}
+
 // f(x) of (5): h of x's own cell when negative, else the minimum of h over the neighbouring
 // cells — the paper's 3×3×3, widened to rings of ⌈max d / cell⌉ (DESIGN.md), and further if
 // still no skeletal vertex was found, so f is always defined. Skeletal vertex `exclude` (the
@@ -167,25 +222,40 @@ FieldValue field_at(const Grid& grid, const glm::vec3& x, const FairingWorkspace
   // own cell's minimum crosses 0 (a float rounding away at rest), so the neighbourhood's
   // minimum is always taken: the same f wherever the own cell's value is negative and
   // another cell's is lower, continuous otherwise.
-  // The (widened) 3×3×3 neighbourhood at once, each row of it (z, y) one run of slots from its
-  // first cell's to past its last cell's: empty cells cost nothing and the balls of a row are
-  // read four at a time without a break at every cell boundary (the own row in two runs, the
-  // own cell being done above). The neighbourhood spans up to (2 ring + 1)³ cells, most of
-  // them empty. The minimum does not depend on the order (precedes), so it is the
-  // shell-by-shell search's minimum. No per-cell pruning by a distance bound: a cell it excludes
-  // cannot lower `best` anyway, and its unpredictable branch costs more than the scan.
+  // The (widened) 3×3×3 neighbourhood, row by row (z, y), each row one run of slots from its
+  // first cell's to past its last cell's (empty cells cost nothing, the balls are read four at
+  // a time; the own row in two runs, the own cell being done above), cut down to the cells that
+  // may hold a ball below the best g so far (row_span): the ring is sized for the largest ball,
+  // so the neighbourhood spans a good part of the character, most of which cannot lower `best`.
+  // The minimum does not depend on the order (precedes), so it is the shell-by-shell search's
+  // minimum.
   const int last_ring = std::max(std::max(grid.ring[0], grid.ring[1]), grid.ring[2]);
   const int x0 = std::max(0, cx - last_ring), x1 = std::min(n - 1, cx + last_ring);
-  for (int z = std::max(0, cz - last_ring); z <= std::min(n - 1, cz + last_ring); ++z)
-    for (int y = std::max(0, cy - last_ring); y <= std::min(n - 1, cy + last_ring); ++y) {
+  const int y0 = std::max(0, cy - last_ring), y1 = std::min(n - 1, cy + last_ring);
+  const int z0 = std::max(0, cz - last_ring), z1 = std::min(n - 1, cz + last_ring);
+  // x in cells from the origin (cell_coordinate's c), and the bound's rounding allowance.
+  const float px = (x.x - grid.origin.x) * grid.inverse_cell.x, py = (x.y - grid.origin.y) * grid.inverse_cell.y;
+  const float pz = (x.z - grid.origin.z) * grid.inverse_cell.z;
+  const float cell_squared = grid.cell.x * grid.cell.x;
+  const float tolerance = bound_tolerance(px, x0, x1, py, y0, y1, pz, z0, z1, cell_squared, grid.max_rr);
+  for (int z = z0; z <= z1; ++z) {
+    const float gz = cell_gap(pz, z, n);
+    for (int y = y0; y <= y1; ++y) {
+      const float rr = ws.row_rr_max[size_t(z) * n + y];
+      if (rr == -std::numeric_limits<float>::infinity()) continue;  // no ball in the row
+      const float gy = cell_gap(py, y, n);
+      int first = 0, last = 0;
+      row_span(px, (best.f + tolerance + rr) / cell_squared - (gz * gz + gy * gy), x0, x1, n, first, last);
+      if (first > last) continue;
       const size_t row = (size_t(z) * n + y) * n;
       if (z == cz && y == cy) {
-        slot_minimum(x, ws, offsets[row + x0], offsets[own], exclude, best);
-        slot_minimum(x, ws, offsets[own + 1], offsets[row + x1 + 1], exclude, best);
+        if (first < cx) slot_minimum(x, ws, offsets[row + first], offsets[own], exclude, best);
+        if (last > cx) slot_minimum(x, ws, offsets[own + 1], offsets[row + last + 1], exclude, best);
       } else {
-        slot_minimum(x, ws, offsets[row + x0], offsets[row + x1 + 1], exclude, best);
+        slot_minimum(x, ws, offsets[row + first], offsets[row + last + 1], exclude, best);
       }
     }
+  }
   // Shells of Chebyshev radius r around the own cell beyond the neighbourhood, nearest first,
   // only while no ball has been found, up to the first shell holding one. A row on the
   // shell's faces in z or y is one run; any other row of the shell's cube meets its surface in
@@ -378,6 +448,13 @@ void intersection_step(const FairingTopology& topo, const Grid& grid, const glm:
   }
   for (uint32_t v = 0; v < vertex_count; ++v) ws.start_positions[v] = x[v] + ws.displacement[v];  // x − τG
   implicit_update(topo, x, step, nullptr, targets, ws);
+}
+
+float grid_field(const Grid& grid, const glm::vec3& x, const FairingWorkspace& ws, uint32_t exclude,
+                 uint32_t& minimiser) {
+  const FieldValue field = field_at(grid, x, ws, exclude);
+  minimiser = field.minimiser;
+  return field.f;
 }
 
 void rest_gaps(const FairingTopology& topo, const glm::vec3* skeletal, const float* radius, const glm::vec3* x,

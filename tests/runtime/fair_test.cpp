@@ -3,6 +3,7 @@
 // on a bent, twisted capsule (self-intersections and volume change against LBS).
 #include "brute_force_pairs.h"
 #include "fair.h"
+#include "fair_internal.h"
 #include "instance.h"
 #include "runtime/runtime_models.h"
 
@@ -196,6 +197,69 @@ TEST_CASE("fair: E_T equals the brute-force minimum over a fine barycentric grid
     // grid spacing of the minimum.
     CHECK(exact <= brute + 1e-5);
     CHECK(exact >= brute - 4.2 / steps);
+  }
+}
+
+// Flow (5)'s f(x) against brute force, in double, over the balls its grid search covers: those
+// in the cells within grid.ring of x's cell. The search skips the rows of that neighbourhood
+// whose lower bound on g is above the best it has: it must never skip the minimum. A few large
+// balls among many small ones make the ring wide and the bound do most of the work; queries on
+// ball surfaces make near-ties; beyond the box, x is clamped into the grid's end cells.
+TEST_CASE("fair: flow (5)'s grid search finds the minimum over its neighbourhood") {
+  std::mt19937 random(11);
+  std::uniform_real_distribution<float> unit(0.0f, 1.0f);
+  for (const float offset : {0.0f, 1000.0f}) {  // also far from the origin, as world space can be
+    CAPTURE(offset);
+    const uint32_t count = 4000;
+    std::vector<glm::vec3> centres(count);
+    std::vector<float> radii(count);
+    for (uint32_t i = 0; i < count; ++i) {
+      centres[i] = glm::vec3(offset) + glm::vec3(2.0f * unit(random), unit(random), 0.5f * unit(random));
+      radii[i] = unit(random) < 0.01f ? 0.4f * unit(random) : 0.03f * unit(random);
+    }
+    const FairingTopology topology = build_fairing_topology(nullptr, 0, count, {});
+    FairingWorkspace workspace = make_fairing_workspace(topology, 20, {});
+    const fair_detail::Grid grid =
+        fair_detail::build_grid(topology, centres.data(), radii.data(), centres.data(), 20, workspace);
+    REQUIRE(grid.ring[0] >= 3);  // the large balls widen the neighbourhood
+    auto cell_of = [&](const glm::vec3& p, int axis) {
+      const float c = (p[axis] - grid.origin[axis]) * grid.inverse_cell[axis];
+      return !(c >= 0.0f) ? 0 : !(c < float(grid.size)) ? grid.size - 1 : int(c);
+    };
+    int compared = 0;
+    for (int query = 0; query < 3000; ++query) {
+      const uint32_t exclude = query % 2 ? uint32_t(random() % count) : std::numeric_limits<uint32_t>::max();
+      glm::vec3 x;
+      if (query % 3 == 0) {  // on a ball's surface: ties with its neighbours to rounding
+        const uint32_t s = uint32_t(random() % count);
+        x = centres[s] + radii[s] * glm::normalize(random_in_unit_ball(random) + glm::vec3(1e-3f));
+      } else {
+        x = glm::vec3(offset) + glm::vec3(2.4f * unit(random) - 0.2f, 1.4f * unit(random) - 0.2f, unit(random) - 0.2f);
+      }
+      double best = std::numeric_limits<double>::infinity(), scale = 0.0;
+      for (uint32_t s = 0; s < count; ++s) {
+        if (s == exclude) continue;
+        bool near = true;
+        for (int axis = 0; axis < 3; ++axis)
+          near &= std::abs(cell_of(centres[s], axis) - cell_of(x, axis)) <= grid.ring[axis];
+        if (!near) continue;
+        const glm::dvec3 d = glm::dvec3(x) - glm::dvec3(centres[s]);
+        const double g = glm::dot(d, d) - double(radii[s]) * radii[s];
+        if (g < best) best = g, scale = glm::dot(d, d) + double(radii[s]) * radii[s];
+      }
+      if (!(best < std::numeric_limits<double>::infinity())) continue;  // the shells beyond: not bounded
+      ++compared;
+      uint32_t minimiser = 0;
+      const float f = fair_detail::grid_field(grid, x, workspace, exclude, minimiser);
+      REQUIRE(minimiser < count);
+      CHECK(minimiser != exclude);
+      const glm::dvec3 d = glm::dvec3(x) - glm::dvec3(centres[minimiser]);
+      const double chosen = glm::dot(d, d) - double(radii[minimiser]) * radii[minimiser];
+      // The ball it found is the best one, to float rounding of g (a tie may go either way).
+      CHECK(chosen <= best + 1e-6 * scale);
+      CHECK(std::fabs(double(f) - chosen) <= 1e-6 * (glm::dot(d, d) + double(radii[minimiser]) * radii[minimiser]));
+    }
+    CHECK(compared > 2500);
   }
 }
 
