@@ -31,3 +31,7 @@ echo "$frames"
 printf '%s\n' "$frames" | grep -q '^{"mesh": "CesiumMan", "vertices": 3273, "frames": 2}$' \
   || { echo "FAIL: unexpected --frames output"; exit 1; }
 if "$BENCH" --frames NoSuchMesh 2 >/dev/null 2>&1; then echo "FAIL: --frames took an unknown mesh"; exit 1; fi
+# --frames MESH 0: set up only; a negative count is refused.
+"$BENCH" --frames CesiumMan 0 2>/dev/null | grep -q '^{"mesh": "CesiumMan", "vertices": 3273, "frames": 0}$' \
+  || { echo "FAIL: unexpected --frames CesiumMan 0 output"; exit 1; }
+if "$BENCH" --frames CesiumMan -1 >/dev/null 2>&1; then echo "FAIL: --frames took -1 frames"; exit 1; fi

@@ -28,7 +28,8 @@
 //                                               of a whole frame, skelform and lbs_optimised
 //   skelform-bench --frames MESH N              N evaluations of skelform on MESH (CesiumMan,
 //                                               CesiumMan_loop1, CesiumMan_loop2, Horse), untimed:
-//                                               for a profiler (bench/instructions.sh)
+//                                               for a profiler (bench/instructions.sh); 0 = load
+//                                               and set up only
 //   skelform-bench --markdown [--runs N]        the README's speed table (CPU time, the median
 //                                               of N runs, ratios against lbs_optimised)
 //   skelform-bench --json [--smoke] [--cpu] [--runs N]  one JSON line per mesh:
@@ -606,8 +607,9 @@ int run_crowd(size_t count, bool smoke) {
 
 // --frames MESH N: N evaluations of `skelform` on one of the bench's meshes, frame after frame
 // from its animation's first pose, and one line out: for a profiler. bench/instructions.sh
-// runs it under callgrind with N and with 1 frame, and the difference over N − 1 is the
-// instructions of a warm evaluation (setup and the first, converging one cancel out).
+// runs it under callgrind with N, 1 and 0 frames: the difference of N and 1 over N − 1 is the
+// instructions of a warm evaluation (setup and the first, converging one cancel out), that of
+// 1 and 0 the first evaluation's (a fresh start, as after a pose jump).
 int run_frames(const std::string& mesh, long frames) {
   const MeshCase* chosen = nullptr;
   for (const MeshCase& mesh_case : kMeshes)
@@ -687,15 +689,15 @@ int main(int argc, char** argv) {
       frames_mesh = argv[++i];
       char* end = nullptr;
       frames = std::strtol(argv[++i], &end, 10);
-      if (*end != '\0' || frames < 1 || frames > 100000) {
-        std::fprintf(stderr, "skelform-bench: error: --frames MESH N takes 1 to 100000 frames, got %s\n", argv[i]);
+      if (*end != '\0' || frames < 0 || frames > 100000) {
+        std::fprintf(stderr, "skelform-bench: error: --frames MESH N takes 0 to 100000 frames, got %s\n", argv[i]);
         return 1;
       }
     } else
       passed.push_back(argv[i]);
   }
   try {
-    if (frames > 0) {
+    if (!frames_mesh.empty()) {
       if (passed.size() > 1 || json || markdown || cpu_time || runs != 1 || smoke || crowd > 0) {
         std::fprintf(stderr, "skelform-bench: error: --frames MESH N takes no other option\n");
         return 1;
