@@ -1,13 +1,14 @@
 // skelform-quality: measures skelform against linear blend skinning on real characters, the
 // way DESIGN.md "Metrics" defines it, over every animation of every file given.
 //
-//   skelform-quality FILE|DIR... [--frames N] [--fps F] [--json] [--check] [-j N] [--quiet]
+//   skelform-quality FILE|DIR... [--frames N] [--fps F] [--fresh] [--json] [--check] [-j N] [--quiet]
 //
 // Each file is baked in memory when it has no SKELFORM_skeletal_deformation extension (the
 // baker's defaults), then played through the C API as an engine plays it: per animation, the
 // first frame from rest, then every 1/fps seconds incrementally; N evenly spaced frames of it
 // (the first and last included) are measured against LBS evaluated on the same joint
-// matrices. Everything is taken against the bind pose in world space (the skin's joint
+// matrices. With --fresh, every measured frame is a fresh start instead (SF_EVAL_FROM_REST, as
+// after a pose jump), and nothing is played between them. Everything is taken against the bind pose in world space (the skin's joint
 // matrices with no animation applied, LBS there):
 //   pairs added     intersecting pairs of non-adjacent triangles of the posed mesh that do not
 //                   intersect at the bind pose (quality_metrics.h)
@@ -52,7 +53,7 @@ using namespace skelform::samples;
 const char* const kUsage =
     "usage: skelform-quality FILE|DIR... [--frames N] [--fps F] [--json] [--check [--waive LINE]...]\n"
     "                        [-j N] [--quiet] [--skeleton S] [--reconstruction R] [--fairing F]\n"
-    "                        [--fairing-iterations N] [--no-contacts]\n"
+    "                        [--fairing-iterations N] [--no-contacts] [--fresh]\n"
     "\n"
     "Plays every animation of skinned glTF 2.0 models through skelform and through linear\n"
     "blend skinning (LBS) and prints, per character and animation, against the bind pose in\n"
@@ -80,6 +81,8 @@ const char* const kUsage =
     "  --fairing-iterations N  fairing iterations per incremental evaluation (default 1)\n"
     "  --no-contacts  skelform with the runtime's contact pass off (sf_instance_set_contacts;\n"
     "                 on by default)\n"
+    "  --fresh        every measured frame from rest (SF_EVAL_FROM_REST, as after a pose jump),\n"
+    "                 nothing played between them: the quality of a fresh start\n"
     "  --waive LINE   with --check: report acceptance line LINE (worse-frames, pair-share,\n"
     "                 volume, rigid, rest, bind, refused) without failing on it (repeatable)\n"
     "  -j N           files measured in parallel (default: the number of cores)\n"
@@ -107,6 +110,7 @@ struct Arguments {
   unsigned jobs = 0;
   sf_eval_options options{};        // skelform's evaluation options (--skeleton, --reconstruction, --fairing)
   bool contacts = true;             // skelform with the contact pass on (the default)
+  bool fresh = false;               // every measured frame from rest (--fresh)
   std::vector<std::string> waived;  // acceptance lines --check reports but does not enforce
 };
 
@@ -138,6 +142,8 @@ Arguments parse_arguments(int argc, char** argv) {
       args.options.fairing_iterations = uint32_t(parse_integer(arg, cursor.value(), 1, 1000));
     } else if (arg == "--no-contacts")
       args.contacts = false;
+    else if (arg == "--fresh")
+      args.fresh = true;
     else if (arg == "--waive") {
       const std::string line = cursor.value();
       if (std::find_if(std::begin(kLines), std::end(kLines), [&](const char* l) { return line == l; }) ==
@@ -399,7 +405,7 @@ FileResult measure_file(const std::string& path, const Arguments& args) {
         // Played as a game plays it: every 1/fps from the previous measured frame, then the
         // measured one; the first frame of the animation from rest.
         std::vector<double> times;
-        if (k > 0) {
+        if (k > 0 && !args.fresh) {
           const double span = target - played;
           const size_t steps = size_t(std::max(1.0, std::ceil(span * args.fps - 1e-9)));
           for (size_t s = 1; s < steps; ++s) times.push_back(played + span * double(s) / double(steps));
@@ -415,7 +421,7 @@ FileResult measure_file(const std::string& path, const Arguments& args) {
             c.skelform.check(sf_instance_set_joint_matrices(c.skelform.handle, matrices.data(), c.info.joint_count, 0),
                              "sf_instance_set_joint_matrices");
             sf_eval_options options = args.options;
-            if (k == 0) options.flags |= SF_EVAL_FROM_REST;
+            if (k == 0 || args.fresh) options.flags |= SF_EVAL_FROM_REST;
             c.skelform.check(sf_instance_evaluate(c.skelform.handle, &options), "sf_instance_evaluate");
             if (t + 1 == times.size()) {
               c.lbs.check(sf_instance_set_joint_matrices(c.lbs.handle, matrices.data(), c.info.joint_count, 0),
