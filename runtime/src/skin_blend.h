@@ -22,6 +22,10 @@
 #include <cmath>
 #include <cstdint>
 
+#if defined(__SSE2__)
+#  include <emmintrin.h>
+#endif
+
 namespace skelform::runtime {
 
 // Row-major 3x4 affine transform: row r is (m[4r], m[4r+1], m[4r+2] | m[4r+3]).
@@ -113,14 +117,30 @@ inline void prepare_joint(const glm::mat4& matrix, JointAffine& affine, JointDua
 
 // LBS: out = Σ w_k · joint[index_k] over `count` influences. Zero-weight slots (joint 0,
 // weight 0) add nothing, so the loop needs no branch.
+// With SSE2 the 12 entries are three lanes of four, each lane the scalar loop's additions in
+// the same order (no fused multiply-add): the same bits.
 inline void blend_affine(const JointAffine* joints, const uint16_t* index, const float* weight, uint32_t count,
                          float out[12]) {
+#if defined(__SSE2__)
+  __m128 row0 = _mm_setzero_ps(), row1 = _mm_setzero_ps(), row2 = _mm_setzero_ps();
+  for (uint32_t k = 0; k < count; ++k) {
+    const __m128 w = _mm_set1_ps(weight[k]);
+    const float* m = joints[index[k]].m;
+    row0 = _mm_add_ps(row0, _mm_mul_ps(w, _mm_loadu_ps(m)));
+    row1 = _mm_add_ps(row1, _mm_mul_ps(w, _mm_loadu_ps(m + 4)));
+    row2 = _mm_add_ps(row2, _mm_mul_ps(w, _mm_loadu_ps(m + 8)));
+  }
+  _mm_storeu_ps(out, row0);
+  _mm_storeu_ps(out + 4, row1);
+  _mm_storeu_ps(out + 8, row2);
+#else
   for (int c = 0; c < 12; ++c) out[c] = 0.0f;
   for (uint32_t k = 0; k < count; ++k) {
     const float w = weight[k];
     const float* m = joints[index[k]].m;
     for (int c = 0; c < 12; ++c) out[c] += w * m[c];
   }
+#endif
 }
 
 // DQS: blends the dual quaternions (each flipped to the hemisphere of the first influence's,
