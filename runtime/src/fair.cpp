@@ -133,6 +133,7 @@ FairingWorkspace make_fairing_workspace(const FairingTopology& topology, uint32_
   ws.cell_z.assign(n + 3, 0.0f);
   ws.cell_rr.assign(n + 3, 0.0f);
   ws.row_rr_max.assign(size_t(ws.grid_size) * ws.grid_size, -std::numeric_limits<float>::infinity());
+  ws.layer_rr_max.assign(ws.grid_size, -std::numeric_limits<float>::infinity());
   ws.target_umbrella.assign(n, glm::vec3(0.0f));
   ws.target_bi_umbrella.assign(n, glm::vec3(0.0f));
   ws.iteration_start.assign(n, glm::vec3(0.0f));

@@ -124,6 +124,7 @@ struct FairingWorkspace {
         cell_z(a),
         cell_rr(a),
         row_rr_max(a),
+        layer_rr_max(a),
         target_umbrella(a),
         target_bi_umbrella(a),
         iteration_start(a),
@@ -151,6 +152,7 @@ struct FairingWorkspace {
   // S and d² of cell_vertices[k] at k (vertex_count + 3: flow (5)'s search reads 4 at a time)
   Array<float> cell_x, cell_y, cell_z, cell_rr;
   Array<float> row_rr_max;                // grid_size²: the largest d² per row of cells along x (-inf where empty)
+  Array<float> layer_rr_max;              // grid_size: the largest d² per layer of cells in z (-inf where empty)
   Array<glm::vec3> target_umbrella;       // rest U turned into this evaluation's frames (FairingRest)
   Array<glm::vec3> target_bi_umbrella;    // rest U², likewise
   Array<glm::vec3> iteration_start;       // positions before the last iteration (its net motion)

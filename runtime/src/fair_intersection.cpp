@@ -91,7 +91,8 @@ Grid build_grid(const FairingTopology& topo, const glm::vec3* skeletal, const fl
   for (size_t c = cell_count; c > 0; --c) ws.cell_offsets[c] = ws.cell_offsets[c - 1];
   ws.cell_offsets[0] = 0;
   // The balls in cell order, structure of arrays: slot_minimum's candidates side by side; and
-  // per row of cells along x the largest d² (field_at's bound on what a row can hold).
+  // per row of cells along x and per layer of rows the largest d² (field_at's bounds on what a
+  // row or a layer can hold).
   std::fill(ws.row_rr_max.begin(), ws.row_rr_max.begin() + size_t(size) * size,
             -std::numeric_limits<float>::infinity());
   for (uint32_t k = 0; k < ws.cell_offsets[cell_count]; ++k) {
@@ -103,6 +104,12 @@ Grid build_grid(const FairingTopology& topo, const glm::vec3* skeletal, const fl
     float& largest = ws.row_rr_max[ws.vertex_cell[s] / uint32_t(size)];
     largest = std::max(largest, ws.cell_rr[k]);
     grid.max_rr = std::max(grid.max_rr, ws.cell_rr[k]);
+  }
+  // Per layer of rows (z), the largest of its rows'.
+  for (int z = 0; z < size; ++z) {
+    float largest = -std::numeric_limits<float>::infinity();
+    for (int y = 0; y < size; ++y) largest = std::max(largest, ws.row_rr_max[size_t(z) * size + y]);
+    ws.layer_rr_max[size_t(z)] = largest;
   }
   return grid;
 }
@@ -222,13 +229,14 @@ FieldValue field_at(const Grid& grid, const glm::vec3& x, const FairingWorkspace
   // own cell's minimum crosses 0 (a float rounding away at rest), so the neighbourhood's
   // minimum is always taken: the same f wherever the own cell's value is negative and
   // another cell's is lower, continuous otherwise.
-  // The (widened) 3×3×3 neighbourhood, row by row (z, y), each row one run of slots from its
-  // first cell's to past its last cell's (empty cells cost nothing, the balls are read four at
-  // a time; the own row in two runs, the own cell being done above), cut down to the cells that
-  // may hold a ball below the best g so far (row_span): the ring is sized for the largest ball,
-  // so the neighbourhood spans a good part of the character, most of which cannot lower `best`.
-  // The minimum does not depend on the order (precedes), so it is the shell-by-shell search's
-  // minimum.
+  // The (widened) 3×3×3 neighbourhood, layer by layer (z) from the own one outwards (the best g
+  // so far falls fastest near x), each layer cut to the rows whose bound with the layer's
+  // largest d² may beat the best so far, each row one run of slots from its first cell's to
+  // past its last cell's (empty cells cost nothing, the balls are read four at a time; the own
+  // row in two runs, the own cell being done above) cut down likewise with the row's largest d²
+  // (row_span): the ring is sized for the largest ball, so the neighbourhood spans a good part
+  // of the character, most of which cannot lower `best`. The minimum does not depend on the
+  // order (precedes), so it is the shell-by-shell search's minimum.
   const int last_ring = std::max(std::max(grid.ring[0], grid.ring[1]), grid.ring[2]);
   const int x0 = std::max(0, cx - last_ring), x1 = std::min(n - 1, cx + last_ring);
   const int y0 = std::max(0, cy - last_ring), y1 = std::min(n - 1, cy + last_ring);
@@ -238,9 +246,15 @@ FieldValue field_at(const Grid& grid, const glm::vec3& x, const FairingWorkspace
   const float pz = (x.z - grid.origin.z) * grid.inverse_cell.z;
   const float cell_squared = grid.cell.x * grid.cell.x;
   const float tolerance = bound_tolerance(px, x0, x1, py, y0, y1, pz, z0, z1, cell_squared, grid.max_rr);
-  for (int z = z0; z <= z1; ++z) {
+  for (int step = 0; step <= 2 * last_ring; ++step) {
+    const int z = step % 2 ? cz - (step + 1) / 2 : cz + step / 2;  // cz, cz + 1, cz − 1, cz + 2, ...
+    if (z < z0 || z > z1) continue;
+    const float layer_rr = ws.layer_rr_max[size_t(z)];
+    if (layer_rr == -std::numeric_limits<float>::infinity()) continue;  // no ball in the layer
     const float gz = cell_gap(pz, z, n);
-    for (int y = y0; y <= y1; ++y) {
+    int first_y = 0, last_y = 0;
+    row_span(py, (best.f + tolerance + layer_rr) / cell_squared - gz * gz, y0, y1, n, first_y, last_y);
+    for (int y = first_y; y <= last_y; ++y) {
       const float rr = ws.row_rr_max[size_t(z) * n + y];
       if (rr == -std::numeric_limits<float>::infinity()) continue;  // no ball in the row
       const float gy = cell_gap(py, y, n);
