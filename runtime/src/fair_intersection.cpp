@@ -245,7 +245,11 @@ FieldValue field_at(const Grid& grid, const glm::vec3& x, const FairingWorkspace
   const float px = (x.x - grid.origin.x) * grid.inverse_cell.x, py = (x.y - grid.origin.y) * grid.inverse_cell.y;
   const float pz = (x.z - grid.origin.z) * grid.inverse_cell.z;
   const float cell_squared = grid.cell.x * grid.cell.x;
-  const float tolerance = bound_tolerance(px, x0, x1, py, y0, y1, pz, z0, z1, cell_squared, grid.max_rr);
+  // A cell² below FLT_MIN is rounded to the subnormals' absolute grid, far beyond the bound's
+  // relative allowance: there no row is cut (an infinite tolerance leaves every span whole).
+  const float tolerance = cell_squared >= std::numeric_limits<float>::min()
+                              ? bound_tolerance(px, x0, x1, py, y0, y1, pz, z0, z1, cell_squared, grid.max_rr)
+                              : std::numeric_limits<float>::infinity();
   for (int step = 0; step <= 2 * last_ring; ++step) {
     const int z = step % 2 ? cz - (step + 1) / 2 : cz + step / 2;  // cz, cz + 1, cz − 1, cz + 2, ...
     if (z < z0 || z > z1) continue;

@@ -200,22 +200,33 @@ TEST_CASE("fair: E_T equals the brute-force minimum over a fine barycentric grid
   }
 }
 
-// Flow (5)'s f(x) against brute force, in double, over the balls its grid search covers: those
-// in the cells within grid.ring of x's cell. The search skips the rows of that neighbourhood
-// whose lower bound on g is above the best it has: it must never skip the minimum. A few large
-// balls among many small ones make the ring wide and the bound do most of the work; queries on
-// ball surfaces make near-ties; beyond the box, x is clamped into the grid's end cells.
+// Flow (5)'s f(x) against brute force over the balls its grid search covers (those in the
+// cells within grid.ring of x's cell), computed the same way in float, g = ((dx² + dy²) + dz²)
+// − d² (the tests build without contraction into fused multiply-adds), ties to the smaller
+// index: the same bits and the same ball. The search skips the layers and rows of that
+// neighbourhood whose lower bound on g is above the best it has: it must never skip the
+// minimum, nor one of its ties. A few large balls among many small ones make the ring wide and
+// the bound do most of the work; queries on ball surfaces make near-ties; beyond the box, x is
+// clamped into the grid's end cells. At world coordinates far from the origin, at a scale
+// whose cell² is subnormal (where the bound cannot hold and the search scans everything) and
+// at a huge one.
 TEST_CASE("fair: flow (5)'s grid search finds the minimum over its neighbourhood") {
   std::mt19937 random(11);
   std::uniform_real_distribution<float> unit(0.0f, 1.0f);
-  for (const float offset : {0.0f, 1000.0f}) {  // also far from the origin, as world space can be
-    CAPTURE(offset);
+  struct Placement {
+    float offset, scale;
+  };
+  for (const Placement placement :
+       {Placement{0.0f, 1.0f}, Placement{1000.0f, 1.0f}, Placement{0.0f, 1e-20f}, Placement{-3e15f, 1e15f}}) {
+    CAPTURE(placement.offset);
+    CAPTURE(placement.scale);
     const uint32_t count = 4000;
     std::vector<glm::vec3> centres(count);
     std::vector<float> radii(count);
+    auto place = [&](const glm::vec3& p) { return glm::vec3(placement.offset) + placement.scale * p; };
     for (uint32_t i = 0; i < count; ++i) {
-      centres[i] = glm::vec3(offset) + glm::vec3(2.0f * unit(random), unit(random), 0.5f * unit(random));
-      radii[i] = unit(random) < 0.01f ? 0.4f * unit(random) : 0.03f * unit(random);
+      centres[i] = place(glm::vec3(2.0f * unit(random), unit(random), 0.5f * unit(random)));
+      radii[i] = placement.scale * (unit(random) < 0.01f ? 0.4f * unit(random) : 0.03f * unit(random));
     }
     const FairingTopology topology = build_fairing_topology(nullptr, 0, count, {});
     FairingWorkspace workspace = make_fairing_workspace(topology, 20, {});
@@ -233,34 +244,70 @@ TEST_CASE("fair: flow (5)'s grid search finds the minimum over its neighbourhood
       if (query % 3 == 0) {  // on a ball's surface: ties with its neighbours to rounding
         const uint32_t s = uint32_t(random() % count);
         x = centres[s] + radii[s] * glm::normalize(random_in_unit_ball(random) + glm::vec3(1e-3f));
+      } else if (query % 10 == 1) {  // far outside the box
+        x = place(glm::vec3(60.0f * unit(random) - 30.0f, 60.0f * unit(random) - 30.0f, 60.0f * unit(random) - 30.0f));
       } else {
-        x = glm::vec3(offset) + glm::vec3(2.4f * unit(random) - 0.2f, 1.4f * unit(random) - 0.2f, unit(random) - 0.2f);
+        x = place(glm::vec3(2.4f * unit(random) - 0.2f, 1.4f * unit(random) - 0.2f, unit(random) - 0.2f));
       }
-      double best = std::numeric_limits<double>::infinity(), scale = 0.0;
+      float best = std::numeric_limits<float>::infinity();
+      uint32_t best_ball = std::numeric_limits<uint32_t>::max();
       for (uint32_t s = 0; s < count; ++s) {
         if (s == exclude) continue;
         bool near = true;
         for (int axis = 0; axis < 3; ++axis)
           near &= std::abs(cell_of(centres[s], axis) - cell_of(x, axis)) <= grid.ring[axis];
         if (!near) continue;
-        const glm::dvec3 d = glm::dvec3(x) - glm::dvec3(centres[s]);
-        const double g = glm::dot(d, d) - double(radii[s]) * radii[s];
-        if (g < best) best = g, scale = glm::dot(d, d) + double(radii[s]) * radii[s];
+        const float dx = x.x - centres[s].x, dy = x.y - centres[s].y, dz = x.z - centres[s].z;
+        const float g = dx * dx + dy * dy + dz * dz - radii[s] * radii[s];
+        if (g < best || (g == best && s < best_ball)) best = g, best_ball = s;
       }
-      if (!(best < std::numeric_limits<double>::infinity())) continue;  // the shells beyond: not bounded
+      if (best_ball == std::numeric_limits<uint32_t>::max()) continue;  // the shells beyond: not bounded
       ++compared;
       uint32_t minimiser = 0;
       const float f = fair_detail::grid_field(grid, x, workspace, exclude, minimiser);
-      REQUIRE(minimiser < count);
-      CHECK(minimiser != exclude);
-      const glm::dvec3 d = glm::dvec3(x) - glm::dvec3(centres[minimiser]);
-      const double chosen = glm::dot(d, d) - double(radii[minimiser]) * radii[minimiser];
-      // The ball it found is the best one, to float rounding of g (a tie may go either way).
-      CHECK(chosen <= best + 1e-6 * scale);
-      CHECK(std::fabs(double(f) - chosen) <= 1e-6 * (glm::dot(d, d) + double(radii[minimiser]) * radii[minimiser]));
+      CHECK(minimiser == best_ball);
+      CHECK(std::memcmp(&f, &best, sizeof f) == 0);
     }
     CHECK(compared > 2500);
   }
+}
+
+// The bound needs cell² in float's normal range: a subnormal one is rounded to an absolute grid
+// (here up by 7e-4 of itself), and a row the true minimum lies in would be cut. Three balls
+// in cells of ~1e-21 (a review's counterexample): B is nearer x than A by one cell² of g, a
+// row further; the search must scan it and find B.
+TEST_CASE("fair: flow (5)'s grid search at a subnormal cell² scans every row") {
+  float c = 0.0f;  // the cell near 1e-21 whose square float rounds up the most
+  double worst = 0.0;
+  for (float t = 1e-21f; t < 1.01e-21f; t = std::nextafter(t, 1.0f)) {
+    const double error = (double(t * t) - double(t) * t) / (double(t) * t);
+    if (error > worst) worst = error, c = t;
+  }
+  const float big = 20.0f * c;
+  c = big / 20.0f;  // the grid's cell: the box's extent over 20 cells
+  REQUIRE(c * c < std::numeric_limits<float>::min());
+  const double gap_a = 1000.9 * 1000.9;                 // g of A from x, in cells²
+  const double rr_b = 1001.05 * 1001.05 - gap_a + 1.0;  // B: g one cell² below A's
+  const std::vector<glm::vec3> centres = {
+      {0.5f * c, 0.9f * c, 0.5f * c}, {0.5f * c, 1.05f * c, 0.5f * c}, {big, big, big}};
+  const std::vector<float> radii = {0.0f, float(std::sqrt(rr_b) * c), 0.0f};
+  const std::vector<glm::vec3> mesh = {{0.0f, 0.0f, 0.0f}, {0.0f, 0.0f, 0.0f}, {big, big, big}};
+  const FairingTopology topology = build_fairing_topology(nullptr, 0, 3, {});
+  FairingWorkspace workspace = make_fairing_workspace(topology, 20, {});
+  const fair_detail::Grid grid =
+      fair_detail::build_grid(topology, centres.data(), radii.data(), mesh.data(), 20, workspace);
+  const glm::vec3 x(0.5f * c, -1000.0f * c, 0.5f * c);
+  float g[3];
+  for (int i = 0; i < 3; ++i) {
+    const glm::vec3 d = x - centres[size_t(i)];
+    g[i] = d.x * d.x + d.y * d.y + d.z * d.z - radii[size_t(i)] * radii[size_t(i)];
+  }
+  REQUIRE(g[1] < g[0]);
+  REQUIRE(g[1] < g[2]);
+  uint32_t minimiser = 0;
+  const float f = fair_detail::grid_field(grid, x, workspace, std::numeric_limits<uint32_t>::max(), minimiser);
+  CHECK(minimiser == 1);
+  CHECK(std::memcmp(&f, &g[1], sizeof f) == 0);
 }
 
 TEST_CASE("fair: E_T analytic cases: tangent plane / cone frustum / sphere / containing ball") {
