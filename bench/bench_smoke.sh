@@ -1,7 +1,8 @@
 #!/bin/sh
 # CTest bench_smoke: skelform-bench --json --smoke must print one JSON line per mesh (2-3) with
-# every method's figure, --crowd 4 --smoke its line, and --frames CesiumMan 2 its line. Skips
-# (77) without the shared data.
+# every method's figure, --crowd 4 --smoke its line, --frames CesiumMan 2 and 0 theirs, and
+# --frames refuses an unknown or empty mesh, a negative count and a second --frames. Skips (77)
+# without the shared data.
 #
 #   bench_smoke.sh SKELFORM_BENCH DATA_DIR
 BENCH=$1 DATA=${SKELFORM_DATA_DIR:-$2}
@@ -31,7 +32,10 @@ echo "$frames"
 printf '%s\n' "$frames" | grep -q '^{"mesh": "CesiumMan", "vertices": 3273, "frames": 2}$' \
   || { echo "FAIL: unexpected --frames output"; exit 1; }
 if "$BENCH" --frames NoSuchMesh 2 >/dev/null 2>&1; then echo "FAIL: --frames took an unknown mesh"; exit 1; fi
-# --frames MESH 0: set up only; a negative count is refused.
-"$BENCH" --frames CesiumMan 0 2>/dev/null | grep -q '^{"mesh": "CesiumMan", "vertices": 3273, "frames": 0}$' \
+# --frames MESH 0: set up only; a negative count, an empty mesh name and --frames twice are refused.
+frames=$("$BENCH" --frames CesiumMan 0 2>/dev/null) || { echo "FAIL: skelform-bench --frames CesiumMan 0 exited $?"; exit 1; }
+printf '%s\n' "$frames" | grep -q '^{"mesh": "CesiumMan", "vertices": 3273, "frames": 0}$' \
   || { echo "FAIL: unexpected --frames CesiumMan 0 output"; exit 1; }
 if "$BENCH" --frames CesiumMan -1 >/dev/null 2>&1; then echo "FAIL: --frames took -1 frames"; exit 1; fi
+if "$BENCH" --frames "" 2 >/dev/null 2>&1; then echo "FAIL: --frames took an empty mesh name"; exit 1; fi
+if "$BENCH" --frames CesiumMan 1 --frames Horse 1 >/dev/null 2>&1; then echo "FAIL: --frames given twice"; exit 1; fi

@@ -659,6 +659,7 @@ int main(int argc, char** argv) {
   bool json = false, markdown = false, smoke = false, cpu_time = false;
   int runs = 1;
   long crowd = 0, frames = 0;
+  bool frames_given = false;
   std::string frames_mesh;
   std::vector<char*> passed{argv[0]};
   for (int i = 1; i < argc; ++i) {
@@ -686,6 +687,11 @@ int main(int argc, char** argv) {
         return 1;
       }
     } else if (std::strcmp(argv[i], "--frames") == 0 && i + 2 < argc) {
+      if (frames_given) {
+        std::fprintf(stderr, "skelform-bench: error: --frames given twice\n");
+        return 1;
+      }
+      frames_given = true;
       frames_mesh = argv[++i];
       char* end = nullptr;
       frames = std::strtol(argv[++i], &end, 10);
@@ -697,7 +703,7 @@ int main(int argc, char** argv) {
       passed.push_back(argv[i]);
   }
   try {
-    if (!frames_mesh.empty()) {
+    if (frames_given) {
       if (passed.size() > 1 || json || markdown || cpu_time || runs != 1 || smoke || crowd > 0) {
         std::fprintf(stderr, "skelform-bench: error: --frames MESH N takes no other option\n");
         return 1;

@@ -82,7 +82,7 @@ const char* const kUsage =
     "  --no-contacts  skelform with the runtime's contact pass off (sf_instance_set_contacts;\n"
     "                 on by default)\n"
     "  --fresh        every measured frame from rest (SF_EVAL_FROM_REST, as after a pose jump),\n"
-    "                 nothing played between them: the quality of a fresh start\n"
+    "                 nothing played between them (--fps unused): the quality of a fresh start\n"
     "  --waive LINE   with --check: report acceptance line LINE (worse-frames, pair-share,\n"
     "                 volume, rigid, rest, bind, refused) without failing on it (repeatable)\n"
     "  -j N           files measured in parallel (default: the number of cores)\n"

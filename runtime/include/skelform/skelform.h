@@ -377,8 +377,8 @@ typedef struct sf_eval_options {
  * pose jump (the local shape of the reconstruction changed at more than 2 % of the control
  * vertices since the last evaluation, as a teleport into another pose or a new animation
  * does; or a switch between joint matrices and handles) discards the warm start and runs to
- * convergence, at most 32 iterations; so does SF_EVAL_FROM_REST: use it for the first frame
- * and whenever the caller knows the pose jumped. A pose held bit for bit comes to rest (the
+ * convergence, at most 32 iterations (or fairing_iterations, if larger); so does
+ * SF_EVAL_FROM_REST: use it for the first frame and whenever the caller knows the pose jumped. A pose held bit for bit comes to rest (the
  * steps halve at each such evaluation). With sf_instance_set_contacts on, the contact pass
  * ends the evaluation. Deterministic: the same sequence of inputs gives the same output bits.
  * Never allocates.
