@@ -2,6 +2,7 @@
 #include "joint_arcs.h"
 
 #include "asset.h"
+#include "asset_read.h"
 #include "skelform/core/gltf_read.h"
 
 #include <tiny_gltf.h>
@@ -178,8 +179,13 @@ class ArcBuilder {
       if (inverse_bind.size() < joints_) return false;
       for (size_t j = 0; j < joints_; ++j) head_[j] = glm::dvec3(glm::inverse(inverse_bind[j])[3]);
     }
+    // A head beyond the asset's length limit (an inverse bind matrix that is nearly singular,
+    // or garbage) would give an arc whose lengths and their squares overflow float: no arcs,
+    // the skin's linear blend everywhere, as for a skin without limb joints.
     for (const glm::dvec3& h : head_)
-      if (!std::isfinite(h.x + h.y + h.z)) return false;
+      if (!(std::fabs(h.x) <= loader::kMaxLength && std::fabs(h.y) <= loader::kMaxLength &&
+            std::fabs(h.z) <= loader::kMaxLength))
+        return false;
     return true;
   }
 

@@ -7,6 +7,7 @@
 //   stencil weights and barycentrics of an asset, bytes read from a file;
 // - a pose whose output would not be finite is refused and the previous output kept;
 // - sf_result_string of any value, files without an end (/dev/zero, a FIFO).
+#include "asset.h"
 #include "fair.h"
 #include "glb_edit.h"
 #include "runtime/runtime_models.h"
@@ -17,6 +18,7 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <atomic>
 #include <chrono>
 #include <cmath>
@@ -138,6 +140,11 @@ void evaluate_everything(const sf_asset* asset) {
         continue;
       }
       CHECK(all_finite(skelform::test::write_all(instance, asset)));
+      // The coarse meshes too, which an engine may draw (sf_instance_write_coarse).
+      std::vector<float> coarse(3 * size_t{info.control_vertex_count});
+      for (uint32_t mesh : {uint32_t(SF_COARSE_CONTROL), uint32_t(SF_COARSE_SKELETAL)})
+        if (sf_instance_write_coarse(instance, mesh, coarse.data(), 0, info.control_vertex_count) == SF_OK)
+          CHECK(std::all_of(coarse.begin(), coarse.end(), [](float x) { return std::isfinite(x); }));
     }
   }
 }
@@ -272,6 +279,31 @@ TEST_SUITE("hostile input") {
       REQUIRE_MESSAGE(sf_instance_evaluate(instance, &method.options) == SF_OK, sf_instance_last_error(instance));
       CHECK(all_finite(skelform::test::write_all(instance, load.asset)));
     }
+  }
+
+  TEST_CASE("a joint placed beyond the length limit by its inverse bind matrix gets no arc, and stays finite") {
+    // A fuzzer's find: inverse bind matrices of subnormal garbage, whose inverses put the joint
+    // heads near 1e40, finite in double and infinite in float. An arc (a limb joint's circular
+    // bend) was built from them with a centre and lengths of inf, and the bent pose gave a
+    // skeletal and control mesh of NaN (sf_instance_write_coarse; the dense output fell back to
+    // LBS and stayed finite). Joint heads beyond the asset's length limit now build no arc: the
+    // skin's linear blend there, as for a skin without limb joints. Here the root's rotation
+    // part is scaled by 1e-39, which puts its head at about 1e39 and leaves the child's arc
+    // otherwise buildable.
+    const skelform::test::RuntimeModel& capsule = skelform::test::capsule_model();
+    REQUIRE_FALSE(capsule.asset->deformables[0].arc_joints.empty());  // the capsule has an arc
+    Glb glb(capsule.baked_glb);
+    Json& accessor = glb.json["accessors"][glb.json["skins"][0]["inverseBindMatrices"].get<size_t>()];
+    for (size_t column = 0; column < 3; ++column)
+      for (size_t row = 0; row < 3; ++row) {
+        const size_t offset = glb.offset_of(accessor, 4 * column + row, 4);
+        glb.put_f32(offset, glb.f32(offset) * 1e-39f);
+      }
+    LoadResult load;
+    load_bytes(glb.bytes(), load);
+    REQUIRE_MESSAGE(load.result == SF_OK, load.message);
+    CHECK(load.asset->deformables[0].arc_joints.empty());
+    evaluate_everything(load.asset);
   }
 
   TEST_CASE("influence sets beyond 16 per deformable are refused at load, quickly") {
