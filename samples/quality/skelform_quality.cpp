@@ -1,15 +1,16 @@
 // skelform-quality: measures skelform against linear blend skinning on real characters, the
 // way DESIGN.md "Metrics" defines it, over every animation of every file given.
 //
-//   skelform-quality FILE|DIR... [--frames N] [--fps F] [--fresh] [--json] [--check] [-j N] [--quiet]
+//   skelform-quality FILE|DIR... [--frames N] [--fps F] [--fresh] [--json] [--check] [-j N]
+//                    [--quiet]
 //
 // Each file is baked in memory when it has no SKELFORM_skeletal_deformation extension (the
 // baker's defaults), then played through the C API as an engine plays it: per animation, the
 // first frame from rest, then every 1/fps seconds incrementally; N evenly spaced frames of it
 // (the first and last included) are measured against LBS evaluated on the same joint
 // matrices. With --fresh, every measured frame is a fresh start instead (SF_EVAL_FROM_REST, as
-// after a pose jump), and nothing is played between them. Everything is taken against the bind pose in world space (the skin's joint
-// matrices with no animation applied, LBS there):
+// after a pose jump), and nothing is played between them. Everything is taken against the bind
+// pose in world space (the skin's joint matrices with no animation applied, LBS there):
 //   pairs added     intersecting pairs of non-adjacent triangles of the posed mesh that do not
 //                   intersect at the bind pose (quality_metrics.h)
 //   at junctions    of the pairs added, those between two parts of the mesh (connected pieces)

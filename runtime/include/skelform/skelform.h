@@ -378,9 +378,10 @@ typedef struct sf_eval_options {
  * vertices since the last evaluation, as a teleport into another pose or a new animation
  * does; or a switch between joint matrices and handles) discards the warm start and runs to
  * convergence, at most 32 iterations (or fairing_iterations, if larger); so does
- * SF_EVAL_FROM_REST: use it for the first frame and whenever the caller knows the pose jumped. A pose held bit for bit comes to rest (the
- * steps halve at each such evaluation). With sf_instance_set_contacts on, the contact pass
- * ends the evaluation. Deterministic: the same sequence of inputs gives the same output bits.
+ * SF_EVAL_FROM_REST: use it for the first frame and whenever the caller knows the pose jumped.
+ * A pose held bit for bit comes to rest (the steps halve at each such evaluation). With
+ * sf_instance_set_contacts on, the contact pass ends the evaluation. Deterministic: the same
+ * sequence of inputs gives the same output bits.
  * Never allocates.
  * Options out of range (an unknown enum value or flag, homotopy_steps above 100,
  * fairing_iterations above 1000, a step outside [0, 10], intersection_grid above 32) give
