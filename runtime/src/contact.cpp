@@ -10,6 +10,10 @@
 #include <cstring>
 #include <limits>
 
+#if defined(__SSE2__)
+#  include <emmintrin.h>
+#endif
+
 namespace skelform::runtime {
 namespace {
 
@@ -177,8 +181,10 @@ class Grid {
       glm::vec3 a, b;
       box(t, a, b);
       if (a.x > hi.x || lo.x > b.x || a.y > hi.y || lo.y > b.y || a.z > hi.z || lo.z > b.z) return;
-      float* stored = ws_.candidate_boxes.data() + 6 * ws_.candidates.size();
-      stored[0] = a.x, stored[1] = a.y, stored[2] = a.z, stored[3] = b.x, stored[4] = b.y, stored[5] = b.z;
+      float* stored = ws_.candidate_boxes.data() + ws_.candidates.size();
+      const size_t plane = ws_.candidate_stride;
+      stored[0] = a.x, stored[plane] = a.y, stored[2 * plane] = a.z;
+      stored[3 * plane] = b.x, stored[4 * plane] = b.y, stored[5 * plane] = b.z;
       ws_.candidates.push_back(t);  // at most every triangle: reserved
     };
     if (shared_) {
@@ -207,23 +213,55 @@ class Grid {
   // star, so meet() never counts it.
   // `stop_above`: the count may stop once it exceeds this (the caller asks only whether it
   // does; pass UINT32_MAX to count every pair).
+  // With SSE2, four candidates' boxes at a time while the budget holds four more visits (it is
+  // spent as one visit per candidate, in order, as the scalar loop spends it).
   uint32_t pairs_around(uint32_t v, glm::vec3* push, uint32_t stop_above = UINT32_MAX) const {
     uint32_t count = 0;
     const size_t candidates = ws_.candidates.size();
-    const float* boxes = ws_.candidate_boxes.data();
+    const float* planes = ws_.candidate_boxes.data();
+    const size_t plane = ws_.candidate_stride;
+    // Candidate i's box meets the star triangle's (a, b) and the triangles intersect: counted,
+    // and its push added. True when the count has passed stop_above.
+    auto pair = [&](uint32_t s, size_t i) {
+      const uint32_t t = ws_.candidates[i];
+      if (!meet(s, t)) return false;
+      ++count;
+      if (push) add_push(v, t, *push);
+      return count > stop_above;
+    };
     for (uint32_t k = mesh_.incident_offsets[v]; k < mesh_.incident_offsets[v + 1]; ++k) {
       const uint32_t s = mesh_.incident[k];
       glm::vec3 a, b;
       box(s, a, b);
-      for (size_t i = 0; i < candidates; ++i) {
+      size_t i = 0;
+#if defined(__SSE2__)
+      const __m128 ax = _mm_set1_ps(a.x), ay = _mm_set1_ps(a.y), az = _mm_set1_ps(a.z);
+      const __m128 bx = _mm_set1_ps(b.x), by = _mm_set1_ps(b.y), bz = _mm_set1_ps(b.z);
+      for (; i + 4 <= candidates && ws_.budget.left >= 4; i += 4) {
+        ws_.budget.left -= 4;
+        const float* c = planes + i;
+        // Apart: a > c's hi or c's lo > b on some axis (false for NaN, as the scalar test).
+        const __m128 apart = _mm_or_ps(
+            _mm_or_ps(
+                _mm_or_ps(_mm_cmpgt_ps(ax, _mm_loadu_ps(c + 3 * plane)), _mm_cmpgt_ps(_mm_loadu_ps(c), bx)),
+                _mm_or_ps(_mm_cmpgt_ps(ay, _mm_loadu_ps(c + 4 * plane)), _mm_cmpgt_ps(_mm_loadu_ps(c + plane), by))),
+            _mm_or_ps(_mm_cmpgt_ps(az, _mm_loadu_ps(c + 5 * plane)), _mm_cmpgt_ps(_mm_loadu_ps(c + 2 * plane), bz)));
+        for (int hits = ~_mm_movemask_ps(apart) & 0xF; hits; hits &= hits - 1) {
+          const int lane = __builtin_ctz(unsigned(hits));
+          if (pair(s, i + size_t(lane))) {
+            ws_.budget.left += uint64_t(3 - lane);  // the lanes after it were not visited
+            return count;
+          }
+        }
+      }
+#endif
+      for (; i < candidates; ++i) {
         if (!ws_.budget.spend()) return count;
-        const float* c = boxes + 6 * i;
-        if (a.x > c[3] || c[0] > b.x || a.y > c[4] || c[1] > b.y || a.z > c[5] || c[2] > b.z) continue;
-        const uint32_t t = ws_.candidates[i];
-        if (!meet(s, t)) continue;
-        ++count;
-        if (push) add_push(v, t, *push);
-        if (count > stop_above) return count;
+        const float* c = planes + i;
+        if (a.x > c[3 * plane] || c[0] > b.x || a.y > c[4 * plane] || c[plane] > b.y || a.z > c[5 * plane] ||
+            c[2 * plane] > b.z)
+          continue;
+        if (pair(s, i)) return count;
       }
     }
     return count;
@@ -438,7 +476,8 @@ ContactWorkspace make_contact_workspace(const ContactMesh& mesh, const Allocator
   ws.active.reserve(mesh.vertex_count);
   ws.stamps.assign(mesh.triangle_count, 0u);
   ws.candidates.reserve(mesh.triangle_count);
-  ws.candidate_boxes.resize(6 * size_t(mesh.triangle_count));
+  ws.candidate_stride = mesh.triangle_count;
+  ws.candidate_boxes.resize(6 * ws.candidate_stride);
   ws.moved.reserve(mesh.vertex_count);
   return ws;
 }

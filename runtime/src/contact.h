@@ -96,8 +96,11 @@ struct ContactWorkspace {
   Array<glm::vec3> normals;      // per triangle: its unit normal when the pass began (0 if degenerate)
   Array<uint32_t> stamps;        // per triangle: the last gather that listed it
   Array<uint32_t> candidates;    // the last gather's triangles
-  Array<float> candidate_boxes;  // their boxes when gathered (lo xyz, hi xyz), 6 per triangle reserved
-  Array<uint32_t> moved;         // the welded vertices the last pass moved, ascending
+  // Their boxes when gathered, as six planes (lo x, y, z, hi x, y, z) of candidate_stride
+  // floats each (one per triangle): pairs_around compares four candidates at a time.
+  Array<float> candidate_boxes;
+  size_t candidate_stride = 0;
+  Array<uint32_t> moved;  // the welded vertices the last pass moved, ascending
   uint32_t stamp = 0;
   bool grid = false;  // cell_offsets, entries, ranges, boxes and normals are sized (add_contact_grid)
   // This pass's work: every triangle pair a search or a push visits spends one. A surface
