@@ -1,7 +1,7 @@
 // skelform-quality: measures skelform against linear blend skinning on real characters, the
 // way DESIGN.md "Metrics" defines it, over every animation of every file given.
 //
-//   skelform-quality FILE|DIR... [--frames N] [--fps F] [--fresh] [--json] [--check] [-j N]
+//   skelform-quality FILE|DIR... [--frames N] [--fps F] [--fresh | --cuts] [--json] [--check] [-j N]
 //                    [--quiet]
 //
 // Each file is baked in memory when it has no SKELFORM_skeletal_deformation extension (the
@@ -9,7 +9,9 @@
 // first frame from rest, then every 1/fps seconds incrementally; N evenly spaced frames of it
 // (the first and last included) are measured against LBS evaluated on the same joint
 // matrices. With --fresh, every measured frame is a fresh start instead (SF_EVAL_FROM_REST, as
-// after a pose jump), and nothing is played between them. Everything is taken against the bind
+// after a pose jump), and nothing is played between them. With --cuts, each animation's first
+// frame follows the previous animation's last without SF_EVAL_FROM_REST, as an engine that cuts
+// without saying so: a detected pose jump, a fresh start spread over evaluations. Everything is taken against the bind
 // pose in world space (the skin's joint matrices with no animation applied, LBS there):
 //   pairs added     intersecting pairs of non-adjacent triangles of the posed mesh that do not
 //                   intersect at the bind pose (quality_metrics.h)
@@ -54,7 +56,7 @@ using namespace skelform::samples;
 const char* const kUsage =
     "usage: skelform-quality FILE|DIR... [--frames N] [--fps F] [--json] [--check [--waive LINE]...]\n"
     "                        [-j N] [--quiet] [--skeleton S] [--reconstruction R] [--fairing F]\n"
-    "                        [--fairing-iterations N] [--no-contacts] [--fresh]\n"
+    "                        [--fairing-iterations N] [--no-contacts] [--fresh | --cuts]\n"
     "\n"
     "Plays every animation of skinned glTF 2.0 models through skelform and through linear\n"
     "blend skinning (LBS) and prints, per character and animation, against the bind pose in\n"
@@ -84,6 +86,8 @@ const char* const kUsage =
     "                 on by default)\n"
     "  --fresh        every measured frame from rest (SF_EVAL_FROM_REST, as after a pose jump),\n"
     "                 nothing played between them (--fps unused): the quality of a fresh start\n"
+    "  --cuts         each animation's first frame without SF_EVAL_FROM_REST, the instance going\n"
+    "                 on from the previous animation: an undeclared cut (a detected pose jump)\n"
     "  --waive LINE   with --check: report acceptance line LINE (worse-frames, pair-share,\n"
     "                 volume, rigid, rest, bind, refused) without failing on it (repeatable)\n"
     "  -j N           files measured in parallel (default: the number of cores)\n"
@@ -112,6 +116,7 @@ struct Arguments {
   sf_eval_options options{};        // skelform's evaluation options (--skeleton, --reconstruction, --fairing)
   bool contacts = true;             // skelform with the contact pass on (the default)
   bool fresh = false;               // every measured frame from rest (--fresh)
+  bool cuts = false;                // each animation's first frame an undeclared cut (--cuts)
   std::vector<std::string> waived;  // acceptance lines --check reports but does not enforce
 };
 
@@ -145,6 +150,8 @@ Arguments parse_arguments(int argc, char** argv) {
       args.contacts = false;
     else if (arg == "--fresh")
       args.fresh = true;
+    else if (arg == "--cuts")
+      args.cuts = true;
     else if (arg == "--waive") {
       const std::string line = cursor.value();
       if (std::find_if(std::begin(kLines), std::end(kLines), [&](const char* l) { return line == l; }) ==
@@ -166,6 +173,7 @@ Arguments parse_arguments(int argc, char** argv) {
       args.inputs.push_back(arg);
   }
   if (args.inputs.empty()) fail(kExitUsage, "expected at least one file or directory");
+  if (args.fresh && args.cuts) fail(kExitUsage, "--fresh and --cuts exclude each other");
   return args;
 }
 
@@ -422,7 +430,7 @@ FileResult measure_file(const std::string& path, const Arguments& args) {
             c.skelform.check(sf_instance_set_joint_matrices(c.skelform.handle, matrices.data(), c.info.joint_count, 0),
                              "sf_instance_set_joint_matrices");
             sf_eval_options options = args.options;
-            if (k == 0 || args.fresh) options.flags |= SF_EVAL_FROM_REST;
+            if ((k == 0 && !args.cuts) || args.fresh) options.flags |= SF_EVAL_FROM_REST;
             c.skelform.check(sf_instance_evaluate(c.skelform.handle, &options), "sf_instance_evaluate");
             if (t + 1 == times.size()) {
               c.lbs.check(sf_instance_set_joint_matrices(c.lbs.handle, matrices.data(), c.info.joint_count, 0),

@@ -56,5 +56,26 @@ PY
 "$QUALITY" "$WORK/character.glb" --frames 3 --fresh --check -q >"$WORK/fresh.txt" || fail "--fresh --check exited $?"
 grep -q "acceptance: every line holds" "$WORK/fresh.txt" || fail "--fresh --check summary: $(tail -3 "$WORK/fresh.txt")"
 
+# --cuts: each animation's first frame without SF_EVAL_FROM_REST (the first one is the
+# instance's first evaluation, a fresh start spread over evaluations; the later ones go on from
+# the previous animation). LBS measures the same as when played, skelform differs somewhere;
+# --check holds; and --cuts excludes --fresh.
+"$QUALITY" "$WORK/character.glb" --frames 3 --cuts --json -q >"$WORK/cuts.json" || fail "--cuts exited $?"
+python3 - "$WORK/report.json" "$WORK/cuts.json" <<'PY' || fail "the --cuts report"
+import json, sys
+played, cuts = (json.load(open(p))["files"][0] for p in sys.argv[1:3])
+differs = False
+for a, b in zip(played["animations"], cuts["animations"]):
+    assert a["volume_change"]["mean"]["lbs"] == b["volume_change"]["mean"]["lbs"], (a["name"], a, b)
+    differs |= a["volume_change"]["mean"]["skelform"] != b["volume_change"]["mean"]["skelform"]
+assert differs, "--cuts measured what playing measures"
+PY
+"$QUALITY" "$WORK/character.glb" --frames 3 --cuts --check -q >"$WORK/cuts.txt" || fail "--cuts --check exited $?"
+grep -q "acceptance: every line holds" "$WORK/cuts.txt" || fail "--cuts --check summary: $(tail -3 "$WORK/cuts.txt")"
+status=0
+"$QUALITY" "$WORK/character.glb" --fresh --cuts -q >/dev/null 2>"$WORK/both.txt" || status=$?
+[ "$status" -eq 1 ] || fail "--fresh --cuts exited $status, expected 1 (usage)"
+grep -q "exclude each other" "$WORK/both.txt" || fail "--fresh --cuts message: $(cat "$WORK/both.txt")"
+
 [ "$failures" -eq 0 ] || exit 1
 echo "quality_cli: all checks passed"
