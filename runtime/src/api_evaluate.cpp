@@ -201,7 +201,8 @@ void evaluate_skelform(sf_instance& instance, const sf_eval_options& options, bo
   fairing.params.fold_step = options.fairing_step;
   fairing.params.intersection_step = options.intersection_step;
   fairing.params.grid_size = options.intersection_grid;
-  fairing.from_rest = (options.flags & SF_EVAL_FROM_REST) != 0 || !instance.has_previous;
+  fairing.requested = (options.flags & SF_EVAL_FROM_REST) != 0;
+  fairing.from_rest = fairing.requested || !instance.has_previous;
   fair_stage(instance, fairing);
   // 4. Refine and displace: skelform's own result.
   displace(d, instance.control.data(), instance.skeletal.data(), instance.control_normal_sums.data(),

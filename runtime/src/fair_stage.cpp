@@ -123,7 +123,9 @@ void fair_stage(sf_instance& instance, const FairStageOptions& options) {
   // reconstruction, bit for bit, as last time) therefore halves the steps at every evaluation,
   // so it comes to rest; any change of the input restores them.
   const bool held = warm && std::memcmp(instance.fairing.start.data(), x, n * sizeof(glm::vec3)) == 0;
-  instance.fairing.gain = held ? instance.fairing.gain * 0.5f : 1.0f;
+  // A convergence that an earlier evaluation began goes on from its annealed steps.
+  const bool continuing = warm && instance.fairing.converging > 0;
+  if (!continuing) instance.fairing.gain = held ? instance.fairing.gain * 0.5f : 1.0f;
   std::memcpy(instance.fairing.start.data(), x, n * sizeof(glm::vec3));
   if (warm)
     for (size_t v = 0; v < n; ++v) x[v] += frames[v] * instance.fairing.offset[v];
@@ -135,9 +137,15 @@ void fair_stage(sf_instance& instance, const FairStageOptions& options) {
     std::fill(instance.fairing.workspace.hull_case.begin(), instance.fairing.workspace.hull_case.end(),
               kHullCaseUnknown);
   }
-  const FairingSchedule run =
-      run_fairing_schedule(topo, skeletal, instance.radius, x, n, params, warm, instance.fairing.gain,
-                           instance.fairing.workspace, &d.fairing_rest, frames);
+  // A fresh start's convergence is spread over evaluations, so that no frame pays for all of
+  // it: kFreshStartChunks chunks now, then one chunk per evaluation (warm-started as usual)
+  // until it is done. A fresh start the caller asked for (SF_EVAL_FROM_REST) runs it whole.
+  const bool converge = !warm || continuing;
+  const uint32_t calls = options.requested ? UINT32_MAX : (continuing ? 1 : kFreshStartChunks);
+  const FairingSchedule run = run_fairing_schedule(topo, skeletal, instance.radius, x, n, params, !converge,
+                                                   instance.fairing.gain, instance.fairing.workspace, &d.fairing_rest,
+                                                   frames, continuing ? instance.fairing.converging : 0, calls);
+  instance.fairing.converging = converge && !run.finished ? run.converged_iterations : 0;
   instance.fairing.gain = run.gain;  // a held pose continues from the annealed steps
   instance.fairing.last_iterations = run.iterations;
   instance.fairing.last_residual = run.residual;
@@ -151,22 +159,31 @@ void fair_stage(sf_instance& instance, const FairStageOptions& options) {
 FairingSchedule run_fairing_schedule(const FairingTopology& topology, const glm::vec3* skeletal, const float* radius,
                                      glm::vec3* positions, size_t vertex_count, FairingParams params, bool warm,
                                      float gain, FairingWorkspace& workspace, const FairingRest* rest,
-                                     const glm::mat3* frames) {
+                                     const glm::mat3* frames, uint32_t done, uint32_t calls) {
   const uint32_t budget = params.iterations;
   const uint32_t limit = warm ? budget : std::max(budget, kConvergenceIterations);
   const float fold_step = params.fold_step, intersection_step = params.intersection_step;
   FairingSchedule run;
-  while (run.iterations < limit && gain > 1e-7f) {
-    params.iterations = warm ? budget : std::min(kConvergenceChunk, limit - run.iterations);
+  uint32_t total = warm ? 0 : done;  // iterations of this convergence, with those done before
+  run.finished = warm;
+  for (uint32_t call = 0; call < calls; ++call) {
+    if (total >= limit || !(gain > 1e-7f)) break;
+    params.iterations = warm ? budget : std::min(kConvergenceChunk, limit - total);
     params.search_stride = warm ? kSearchStride : 1;  // a fresh start searches everywhere
     params.fold_step = fold_step * gain;
     params.intersection_step = intersection_step * gain;
     run.residual = fair_run(topology, skeletal, radius, positions, vertex_count, params, workspace, rest, frames);
     run.iterations += params.iterations;
-    if (run.residual < 0.0f || warm) break;  // (< 0: sizes that do not match the topology)
-    if (run.residual < kConvergedResidual) break;
-    if (run.iterations >= kAnnealAfter) gain *= kAnnealRate;
+    total += params.iterations;
+    // (< 0: sizes that do not match the topology)
+    if (run.residual < 0.0f || warm || run.residual < kConvergedResidual) {
+      run.finished = true;
+      break;
+    }
+    if (total >= kAnnealAfter) gain *= kAnnealRate;
   }
+  run.finished = run.finished || total >= limit || !(gain > 1e-7f);
+  run.converged_iterations = total;
   run.gain = gain;
   return run;
 }

@@ -133,7 +133,8 @@ void reconstruct_homotopy(const Deformable& d, const glm::vec3* rest_offset, con
 
 // fair_stage.cpp. Stage 3: flows (4) and (5) (fair.h) on instance.control (M from the
 // reconstruction, with S' in instance.skeletal), in place. `from_rest` discards the warm start
-// and runs to convergence. Options already validated by the caller.
+// and converges afresh: in this evaluation when `requested`, else over this one and the next
+// ones (kFreshStartChunks). Options already validated by the caller.
 constexpr uint32_t kMaxIntersectionGrid = 32;      // workspace grid per instance (32³ cells)
 constexpr uint32_t kMaxFairingIterations = 1000;   // per evaluation, incremental budget
 constexpr uint32_t kDefaultFairingIterations = 1;  // per incremental evaluation
@@ -149,10 +150,16 @@ constexpr uint32_t kAnnealAfter = 16;        // converging: full steps for this 
 constexpr float kAnnealRate = 0.3f;          // then steps × this per chunk
 constexpr float kPoseJumpFraction = 0.02f;   // of the control vertices: a pose jump
 constexpr float kPoseJumpShape = 0.25f;      // change of a vertex's local shape, in edge lengths, that is a pose jump
+// A fresh start the caller did not ask for (the first evaluation, a pose jump) runs this many
+// chunks (the full steps) in its evaluation, and each next evaluation one more (annealed) until
+// the convergence is done: the frame of a spawn or an animation cut costs about half of what the
+// whole convergence costs, the two after it about a quarter each (docs/results.md).
+constexpr uint32_t kFreshStartChunks = 2;
 
 struct FairStageOptions {
   FairingParams params;  // flows, stepping, steps, grid; params.iterations = the budget
   bool from_rest = false;
+  bool requested = false;  // SF_EVAL_FROM_REST: the caller asked for the fresh start, it converges here
 };
 
 // What the fairing stage keeps from one evaluation to the next, owned by the instance: its
@@ -174,6 +181,7 @@ struct FairingState {
   Array<float> mean_edge;               // mean one-ring edge length of M (pose-jump test)
   Array<uint8_t> fixed;                 // handle driver: vertices kept out of the fairing
   float gain = 1.0f;                    // step scale: halves per evaluation while the pose is held
+  uint32_t converging = 0;              // iterations of an unfinished convergence (0: none)
   uint32_t last_iterations = 0;         // of the last evaluation (sf_instance_fairing_stats)
   float last_residual = 0.0f;
 };
@@ -188,15 +196,19 @@ void fair_stage(sf_instance& instance, const FairStageOptions& options);
 // params.intersection_step are the resolved (non-zero) steps before the gain; every call scales
 // them by the current gain, which starts at `gain`; below 1e-7 a step cannot move a float
 // coordinate, and nothing runs.
+// A convergence may be run in parts: `done` iterations of it ran before (in earlier
+// evaluations), and this call makes at most `calls` fair_run() calls.
 struct FairingSchedule {
-  uint32_t iterations = 0;  // run in all
-  float residual = 0.0f;    // fair_run()'s result for the last call
-  float gain = 1.0f;        // the steps' scale after the schedule (annealed when converging)
+  uint32_t iterations = 0;            // run in this call
+  float residual = 0.0f;              // fair_run()'s result for the last call
+  float gain = 1.0f;                  // the steps' scale after the schedule (annealed when converging)
+  bool finished = true;               // warm, or the convergence is done (converged or at its cap)
+  uint32_t converged_iterations = 0;  // converging: iterations of it so far, `done` included
 };
 FairingSchedule run_fairing_schedule(const FairingTopology& topology, const glm::vec3* skeletal, const float* radius,
                                      glm::vec3* positions, size_t vertex_count, FairingParams params, bool warm,
                                      float gain, FairingWorkspace& workspace, const FairingRest* rest,
-                                     const glm::mat3* frames);
+                                     const glm::mat3* frames, uint32_t done = 0, uint32_t calls = UINT32_MAX);
 
 // displace.cpp. Refines the control mesh (refine.h refine_surface, `control_normal_sums` its
 // control-sized scratch) and places every dense vertex from its DSS binding; with

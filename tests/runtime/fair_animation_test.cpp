@@ -257,12 +257,15 @@ TEST_CASE("fair animation: CesiumMan held mid-animation stops moving and its ani
 
 TEST_CASE("fair animation: one iteration per incremental evaluation by default; a pose jump or from_rest converges") {
   // The budget the C API documents (skelform.h sf_eval_options, docs/runtime-api.md
-  // "Fairing"): fairing_iterations = 0 means 1 per incremental evaluation; the first
-  // evaluation, SF_EVAL_FROM_REST and a detected pose jump run to convergence (at most 32, or
-  // fairing_iterations if larger).
+  // "Fairing"): fairing_iterations = 0 means 1 per incremental evaluation. The first evaluation
+  // and a detected pose jump start a convergence of at most 32 iterations (or
+  // fairing_iterations if larger): 16 in that evaluation, then a chunk of 8 in each next one
+  // until it is done. SF_EVAL_FROM_REST runs the whole convergence in its evaluation.
   const skelform::test::RuntimeModel& model = skelform::test::capsule_model();
   Instance instance(model.asset);
-  const auto set_bend = [&](float angle) {
+  float angle = 0.0f;
+  const auto set_bend = [&](float a) {
+    angle = a;
     const std::vector<float> joints = flat(skelform::test::bend_pose(model, 1, angle, glm::vec3(0, 1, 0)));
     REQUIRE(sf_instance_set_joint_matrices(instance.instance, joints.data(), model.inverse_bind.size(), 0) == SF_OK);
   };
@@ -275,29 +278,92 @@ TEST_CASE("fair animation: one iteration per incremental evaluation by default; 
     return iterations;
   };
   const sf_eval_options defaults{};
+  // A convergence begun by `first` iterations: the next frames of the motion (`step` apart)
+  // go on with it, 8 at most each, then one iteration per evaluation. Returns the
+  // convergence's iterations in all.
+  const auto converge = [&](uint32_t first, float step) {
+    CHECK(first > 1);
+    CHECK(first <= 16);
+    uint32_t total = first;
+    for (int evaluation = 0;; ++evaluation) {
+      REQUIRE(evaluation < 4);  // 16 + 8 + 8 = 32: done in at most two more evaluations
+      set_bend(angle + step);
+      const uint32_t iterations = evaluate(defaults);
+      if (iterations == 1) break;
+      CHECK(iterations == 8);
+      total += iterations;
+    }
+    CHECK(total <= 32);
+    return total;
+  };
   set_bend(1.2f);
-  const uint32_t first = evaluate(defaults);  // no previous evaluation: from rest
-  MESSAGE("first evaluation (capsule bent 1.2 rad): " << first << " iterations");
-  CHECK(first > 1);
-  CHECK(first <= 32);
-  set_bend(1.25f);  // the next frame of a motion
-  CHECK(evaluate(defaults) == 1);
+  const uint32_t first = evaluate(defaults);  // no previous evaluation: a fresh start
+  const uint32_t first_total = converge(first, 0.05f);
+  MESSAGE("first evaluation (capsule bent 1.2 rad): " << first << " iterations, " << first_total << " in all");
   sf_eval_options three{};
   three.fairing_iterations = 3;
-  set_bend(1.3f);
+  set_bend(angle + 0.05f);
   CHECK(evaluate(three) == 3);
   set_bend(-1.3f);  // a teleport into the opposite bend: detected, converged afresh
   const uint32_t jump = evaluate(defaults);
-  MESSAGE("pose jump from 1.3 to -1.3 rad: " << jump << " iterations");
-  CHECK(jump > 1);
-  CHECK(jump <= 32);
-  set_bend(-1.25f);
-  CHECK(evaluate(defaults) == 1);
+  const uint32_t jump_total = converge(jump, 0.05f);
+  MESSAGE("pose jump to -1.3 rad: " << jump << " iterations, " << jump_total << " in all");
   sf_eval_options from_rest{};
   from_rest.flags = SF_EVAL_FROM_REST;
   const uint32_t fresh = evaluate(from_rest);  // same pose, but the caller asks for a fresh start
-  CHECK(fresh > 1);
+  MESSAGE("SF_EVAL_FROM_REST: " << fresh << " iterations");
+  CHECK(fresh > 16);  // the whole convergence, in this evaluation (the capsule takes more than 16)
   CHECK(fresh <= 32);
+  set_bend(angle + 0.05f);
+  CHECK(evaluate(defaults) == 1);  // nothing left of it for the next evaluation
+}
+
+// A fresh start spread over evaluations ends where one run whole in its evaluation ends: on a
+// held pose, the first evaluation and the two that go on with its convergence leave the control
+// mesh within 1e-4 of the diagonal of SF_EVAL_FROM_REST's (the warm start turns the correction
+// into each vertex's frame and back, which rounds).
+TEST_CASE("fair animation: a spread fresh start ends where SF_EVAL_FROM_REST does") {
+  const skelform::test::RuntimeModel& model = skelform::test::capsule_model();
+  sf_deformable_info info{};
+  REQUIRE(sf_asset_deformable_info(model.asset, 0, &info) == SF_OK);
+  const std::vector<float> joints = flat(skelform::test::bend_pose(model, 1, 1.2f, glm::vec3(0, 1, 0)));
+  const auto control = [&](sf_instance* instance) {
+    std::vector<glm::vec3> positions(info.control_vertex_count);
+    REQUIRE(sf_instance_write_coarse(instance, SF_COARSE_CONTROL, &positions[0].x, 0, info.control_vertex_count) ==
+            SF_OK);
+    return positions;
+  };
+  Instance spread(model.asset), whole(model.asset);
+  REQUIRE(sf_instance_set_joint_matrices(spread.instance, joints.data(), model.inverse_bind.size(), 0) == SF_OK);
+  REQUIRE(sf_instance_set_joint_matrices(whole.instance, joints.data(), model.inverse_bind.size(), 0) == SF_OK);
+  const sf_eval_options defaults{};
+  uint32_t total = 0, iterations = 0;
+  std::vector<glm::vec3> first;
+  for (int evaluation = 0; evaluation < 3; ++evaluation) {
+    REQUIRE(sf_instance_evaluate(spread.instance, &defaults) == SF_OK);
+    REQUIRE(sf_instance_fairing_stats(spread.instance, &iterations, nullptr) == SF_OK);
+    total += iterations;
+    if (evaluation == 0) first = control(spread.instance);
+  }
+  sf_eval_options from_rest{};
+  from_rest.flags = SF_EVAL_FROM_REST;
+  REQUIRE(sf_instance_evaluate(whole.instance, &from_rest) == SF_OK);
+  REQUIRE(sf_instance_fairing_stats(whole.instance, &iterations, nullptr) == SF_OK);
+  CHECK(total == iterations);  // the same schedule, in parts
+  const std::vector<glm::vec3> a = control(spread.instance), b = control(whole.instance);
+  glm::vec3 lo(1e30f), hi(-1e30f);
+  float largest = 0.0f, first_largest = 0.0f;
+  for (size_t v = 0; v < b.size(); ++v) {
+    lo = glm::min(lo, b[v]);
+    hi = glm::max(hi, b[v]);
+    largest = std::max(largest, glm::length(a[v] - b[v]));
+    first_largest = std::max(first_largest, glm::length(first[v] - b[v]));
+  }
+  const float diagonal = glm::length(hi - lo);
+  MESSAGE("spread against whole: " << largest / diagonal << " of the diagonal after three evaluations, "
+                                   << first_largest / diagonal << " after the first");
+  CHECK(largest <= 1e-4f * diagonal);
+  CHECK(largest < first_largest);  // the evaluations after the first did converge further
 }
 
 // sf_instance_set_contacts acts: where skelform's own result has pairs the pass resolves

@@ -165,9 +165,12 @@ TEST_CASE("output: after SF_EVAL_SKIP_NORMALS positions are written and normal/t
   Posed posed;
   make_posed(posed);
   const sf_asset* asset = skelform::test::capsule_model().asset;
-  // From rest, like make_posed's first evaluation, so the positions are those bits again (an
-  // incremental evaluation would continue the fairing from there).
+  // From rest twice, the second without normals: an evaluation from rest depends on its input
+  // only, so the positions are the first one's bits again.
   sf_eval_options options{};
+  options.flags = SF_EVAL_FROM_REST;
+  REQUIRE(sf_instance_evaluate(posed.instance, &options) == SF_OK);
+  posed.packed = skelform::test::write_all(posed.instance, asset);
   options.flags = SF_EVAL_SKIP_NORMALS | SF_EVAL_FROM_REST;
   REQUIRE(sf_instance_evaluate(posed.instance, &options) == SF_OK);
   sf_primitive_info info{};

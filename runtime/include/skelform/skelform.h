@@ -336,7 +336,7 @@ typedef enum sf_reconstruction {
 } sf_reconstruction;
 
 /* Evaluation flags (bit mask). */
-#define SF_EVAL_FROM_REST 0x1u    /* ignore the previous evaluation: start from rest and run to convergence */
+#define SF_EVAL_FROM_REST 0x1u    /* ignore the previous evaluation: start from rest, converge in this evaluation */
 #define SF_EVAL_SKIP_NORMALS 0x2u /* do not compute normals/tangents (sf_instance_write leaves them) */
 
 /* Fairing flags (sf_eval_options.fairing_flags, bit mask). */
@@ -376,9 +376,12 @@ typedef struct sf_eval_options {
  * character through translation and rotation) and runs `fairing_iterations` iterations. A
  * pose jump (the local shape of the reconstruction changed at more than 2 % of the control
  * vertices since the last evaluation, as a teleport into another pose or a new animation
- * does; or a switch between joint matrices and handles) discards the warm start and runs to
- * convergence, at most 32 iterations (or fairing_iterations, if larger); so does
- * SF_EVAL_FROM_REST: use it for the first frame and whenever the caller knows the pose jumped.
+ * does; or a switch between joint matrices and handles) discards the warm start and starts a
+ * convergence of at most 32 iterations (or fairing_iterations, if larger); so does the first
+ * evaluation. That evaluation runs 16 of them, and each next one 8 more (in place of its
+ * fairing_iterations) until the convergence is done, so that no one frame pays for all of it.
+ * SF_EVAL_FROM_REST discards the warm start too and runs the whole convergence in its own
+ * evaluation: use it when the caller knows the pose jumped and wants that frame converged.
  * A pose held bit for bit comes to rest (the steps halve at each such evaluation). With
  * sf_instance_set_contacts on, the contact pass ends the evaluation. Deterministic: the same
  * sequence of inputs gives the same output bits.
