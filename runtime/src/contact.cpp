@@ -21,6 +21,7 @@ constexpr uint32_t kEntriesPerTriangle = 8;  // grid entries reserved per triang
 constexpr uint32_t kCellsPerTriangle = 4;    // grid cells at most, per triangle
 constexpr int kMaxCellsPerAxis = 1024;
 constexpr uint8_t kActive = 1, kMoved = 2, kMovable = 4;  // ContactWorkspace::state bits
+constexpr uint32_t kLookAgain = UINT32_MAX;               // ContactWorkspace::seen: it moved then
 
 bool finite(const glm::vec3& v) { return std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z); }
 
@@ -153,9 +154,21 @@ class Grid {
     return count;
   }
 
+  // The box of the star of welded vertex v (its triangles) where they are now.
+  void star_box(uint32_t v, glm::vec3& lo, glm::vec3& hi) const {
+    lo = glm::vec3(std::numeric_limits<float>::max()), hi = glm::vec3(-std::numeric_limits<float>::max());
+    for (uint32_t k = mesh_.incident_offsets[v]; k < mesh_.incident_offsets[v + 1]; ++k) {
+      glm::vec3 a, b;
+      box(mesh_.incident[k], a, b);
+      lo = glm::min(lo, a);
+      hi = glm::max(hi, b);
+    }
+  }
+
   // The triangles that may meet one around welded vertex v while v moves by up to `reach` and
-  // the other vertices stay where they are, each once, into ws.candidates.
-  void gather(uint32_t v, float reach) {
+  // the other vertices stay where they are, each once, into ws.candidates. `region` (6 floats)
+  // receives where it looked: the box a candidate's box meets.
+  void gather(uint32_t v, float reach, float* region) {
     if (++ws_.stamp == 0) {  // wrapped: forget every old mark
       std::fill(ws_.stamps.begin(), ws_.stamps.end(), 0u);
       ws_.stamp = 1;
@@ -163,15 +176,11 @@ class Grid {
     ws_.candidates.clear();
     const uint32_t* offsets = ws_.cell_offsets.data();
     // The star of v (its triangles' box) grown by v's reach: where its triangles can be.
-    glm::vec3 lo(std::numeric_limits<float>::max()), hi(-std::numeric_limits<float>::max());
-    for (uint32_t k = mesh_.incident_offsets[v]; k < mesh_.incident_offsets[v + 1]; ++k) {
-      glm::vec3 a, b;
-      box(mesh_.incident[k], a, b);
-      lo = glm::min(lo, a);
-      hi = glm::max(hi, b);
-    }
+    glm::vec3 lo, hi;
+    star_box(v, lo, hi);
     lo -= glm::vec3(reach);
     hi += glm::vec3(reach);
+    region[0] = lo.x, region[1] = lo.y, region[2] = lo.z, region[3] = hi.x, region[4] = hi.y, region[5] = hi.z;
     // Another triangle is where it was bucketed, within the pad (in a shared search's
     // hierarchy, inside its grown box); kept if its box now meets the star's (the others do not
     // move while v does).
@@ -478,6 +487,10 @@ ContactWorkspace make_contact_workspace(const ContactMesh& mesh, const Allocator
   ws.candidates.reserve(mesh.triangle_count);
   ws.candidate_stride = mesh.triangle_count;
   ws.candidate_boxes.resize(6 * ws.candidate_stride);
+  const size_t looks = std::min<size_t>(mesh.vertex_count, kContactSkipCapacity);
+  ws.regions.resize(6 * looks);
+  ws.seen.resize(looks);
+  ws.move_boxes.resize(6 * looks);
   ws.moved.reserve(mesh.vertex_count);
   return ws;
 }
@@ -555,11 +568,40 @@ ContactStats resolve_contacts(const ContactMesh& mesh, float scale, glm::vec3* d
       if (ws.state[v] & kMoved) grid.reset_boxes(v);
     return stats;
   };
+  // After the first sweep, an active vertex that did not move when the pass last looked at it,
+  // and near which nothing has moved since, is passed over: it would gather the same candidates
+  // at the same places and decide again not to move (the output is the same bit for bit; only
+  // the work budget is spent less). Near: a move's box (the moved vertex's star before and after
+  // it) meets the region of that look (regions). Between two looks at a vertex every other
+  // active vertex is looked at once, so a ring of as many moves holds those since. (With more
+  // active vertices than kContactSkipCapacity, every vertex is looked at in every sweep.)
+  const size_t active_count = ws.active.size();
+  const bool skipping = active_count <= ws.seen.size();
+  uint32_t moves = 0;
+  const auto disturbed = [&](size_t i) {
+    if (!skipping || ws.seen[i] == kLookAgain) return true;
+    const float* r = ws.regions.data() + 6 * i;
+    for (uint32_t m = ws.seen[i]; m < moves; ++m) {
+      const float* b = ws.move_boxes.data() + 6 * (m % active_count);
+      // Apart on some axis; not apart (NaN included) counts as near.
+      if (!(r[3] < b[0] || b[3] < r[0] || r[4] < b[1] || b[4] < r[1] || r[5] < b[2] || b[5] < r[2])) return true;
+    }
+    return false;
+  };
   for (uint32_t sweep = 0; sweep < kContactSweeps; ++sweep) {
     bool any = false;
-    for (uint32_t v : ws.active) {
+    for (size_t i = 0; i < active_count; ++i) {
+      const uint32_t v = ws.active[i];
+      if (sweep > 0 && !disturbed(i)) {
+        ws.seen[i] = moves;
+        continue;
+      }
+      float unused[6];
+      float* region = skipping ? ws.regions.data() + 6 * i : unused;
+      if (skipping) ws.seen[i] = moves;
       // The triangles around v where it is: its pairs and its push.
-      grid.gather(v, 0.0f);
+      grid.gather(v, 0.0f, region);
+      const glm::vec3 star_lo(region[0], region[1], region[2]), star_hi(region[3], region[4], region[5]);
       glm::vec3 push(0.0f);
       const uint32_t before = grid.pairs_around(v, &push);
       if (spent()) return give_up();
@@ -571,7 +613,7 @@ ContactStats resolve_contacts(const ContactMesh& mesh, float scale, glm::vec3* d
       if (!(glm::dot(step, step) > 0.0f)) continue;  // at its cap already
       // Then those its star can meet on the way (the tries below take the step, half, a
       // quarter; twice its length covers the rounding of x + step).
-      grid.gather(v, 2.0f * glm::length(step));
+      grid.gather(v, 2.0f * glm::length(step), region);
       const glm::vec3 old = x[v];
       bool accepted = false;
       for (int attempt = 0; attempt < 3 && !accepted; ++attempt, step *= 0.5f) {
@@ -589,6 +631,13 @@ ContactStats resolve_contacts(const ContactMesh& mesh, float scale, glm::vec3* d
       ws.state[v] |= kMoved;
       grid.moved(v);
       any = true;
+      if (!skipping) continue;
+      glm::vec3 lo, hi;
+      grid.star_box(v, lo, hi);
+      lo = glm::min(lo, star_lo), hi = glm::max(hi, star_hi);
+      float* b = ws.move_boxes.data() + 6 * (moves++ % active_count);
+      b[0] = lo.x, b[1] = lo.y, b[2] = lo.z, b[3] = hi.x, b[4] = hi.y, b[5] = hi.z;
+      ws.seen[i] = kLookAgain;
     }
     if (!any) break;
   }

@@ -58,6 +58,9 @@ struct ContactMesh {
 inline uint64_t pair_key(uint32_t s, uint32_t t) { return uint64_t(std::min(s, t)) << 32 | std::max(s, t); }
 
 constexpr uint32_t kContactSweeps = 4;  // passes over the active vertices, at most
+// Active vertices a pass keeps its looks for, to pass over those near which nothing moved
+// (resolve_contacts); the corpus's passes have at most 187 (`./run.sh quality`).
+constexpr uint32_t kContactSkipCapacity = 1024;
 // The pass's work budget, in guard budgets (pair_visit_budget): its detection is one search,
 // then each sweep gathers and tests candidates around every active vertex, several times
 // (docs/tuning.md has the corpus's worst use against it).
@@ -84,6 +87,9 @@ struct ContactWorkspace {
         stamps(a),
         candidates(a),
         candidate_boxes(a),
+        regions(a),
+        seen(a),
+        move_boxes(a),
         moved(a) {}
   Array<glm::vec3> positions;    // welded positions
   Array<glm::vec3> start;        // position of each active vertex when the pass began
@@ -100,6 +106,13 @@ struct ContactWorkspace {
   // floats each (one per triangle): pairs_around compares four candidates at a time.
   Array<float> candidate_boxes;
   size_t candidate_stride = 0;
+  // Per active vertex (by its place in `active`, up to kContactSkipCapacity): where its last
+  // look found its candidates (its star's box grown by the reach of its last gather; lo xyz, hi
+  // xyz) and the pass's count of moves then (or kLookAgain). A ring of the last moves' boxes, as
+  // many as active vertices.
+  Array<float> regions;
+  Array<uint32_t> seen;
+  Array<float> move_boxes;
   Array<uint32_t> moved;  // the welded vertices the last pass moved, ascending
   uint32_t stamp = 0;
   bool grid = false;  // cell_offsets, entries, ranges, boxes and normals are sized (add_contact_grid)
