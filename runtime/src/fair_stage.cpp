@@ -139,9 +139,11 @@ void fair_stage(sf_instance& instance, const FairStageOptions& options) {
   }
   // A fresh start's convergence is spread over evaluations, so that no frame pays for all of
   // it: kFreshStartChunks chunks now, then one chunk per evaluation (warm-started as usual)
-  // until it is done. A fresh start the caller asked for (SF_EVAL_FROM_REST) runs it whole.
+  // until it is done; never fewer chunks than hold the evaluation's own budget of iterations. A
+  // fresh start the caller asked for (SF_EVAL_FROM_REST) runs it whole.
   const bool converge = !warm || continuing;
-  const uint32_t calls = options.requested ? UINT32_MAX : (continuing ? 1 : kFreshStartChunks);
+  const uint32_t budget_chunks = (params.iterations + kConvergenceChunk - 1) / kConvergenceChunk;
+  const uint32_t calls = options.requested ? UINT32_MAX : std::max(continuing ? 1u : kFreshStartChunks, budget_chunks);
   const FairingSchedule run = run_fairing_schedule(topo, skeletal, instance.radius, x, n, params, !converge,
                                                    instance.fairing.gain, instance.fairing.workspace, &d.fairing_rest,
                                                    frames, continuing ? instance.fairing.converging : 0, calls);

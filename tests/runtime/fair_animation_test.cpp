@@ -316,6 +316,23 @@ TEST_CASE("fair animation: one iteration per incremental evaluation by default; 
   CHECK(fresh <= 32);
   set_bend(angle + 0.05f);
   CHECK(evaluate(defaults) == 1);  // nothing left of it for the next evaluation
+
+  // A budget above the fresh start's share: a convergence evaluation never runs fewer
+  // iterations than the caller's fairing_iterations (here 24 of the 32, then the 8 left).
+  Instance budget(model.asset);
+  sf_eval_options many{};
+  many.fairing_iterations = 24;
+  uint32_t per_evaluation[3] = {};
+  for (uint32_t& iterations : per_evaluation) {
+    const std::vector<float> joints = flat(
+        skelform::test::bend_pose(model, 1, 1.2f + 0.05f * float(&iterations - per_evaluation), glm::vec3(0, 1, 0)));
+    REQUIRE(sf_instance_set_joint_matrices(budget.instance, joints.data(), model.inverse_bind.size(), 0) == SF_OK);
+    REQUIRE(sf_instance_evaluate(budget.instance, &many) == SF_OK);
+    REQUIRE(sf_instance_fairing_stats(budget.instance, &iterations, nullptr) == SF_OK);
+  }
+  CHECK(per_evaluation[0] == 24);
+  CHECK(per_evaluation[1] == 8);
+  CHECK(per_evaluation[2] == 24);  // warm: the budget
 }
 
 // A fresh start spread over evaluations ends where one run whole in its evaluation ends: on a
