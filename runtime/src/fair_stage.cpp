@@ -5,8 +5,10 @@
 // control vertex. It is stored in the vertex's local frame of M (fair.h fairing_frames: the
 // reconstruction direction and a one-ring edge), so that the next evaluation starts from
 // M_next + frame_next · c: a character that translates or turns keeps its correction, and a
-// pose that changes a little needs only a few iterations to follow. From rest (or the first
-// evaluation) the correction is 0 and the flows run to convergence.
+// pose that changes a little needs only a few iterations to follow. From rest (the first
+// evaluation, a pose jump, SF_EVAL_FROM_REST) the correction is 0 and the flows converge: in
+// that evaluation when the caller asked for it, else over it and the next ones (instance.h
+// kFreshStartChunks).
 #include "instance.h"
 
 #include <glm/geometric.hpp>
@@ -121,7 +123,8 @@ void fair_stage(sf_instance& instance, const FairStageOptions& options) {
   // sides jump where the minimiser or the rule switches, and fixed steps chatter there with an
   // amplitude proportional to the step (docs/tuning.md). A held pose (the same
   // reconstruction, bit for bit, as last time) therefore halves the steps at every evaluation,
-  // so it comes to rest; any change of the input restores them.
+  // so it comes to rest; any change of the input restores them, except during a spread
+  // convergence, which anneals on its own schedule.
   const bool held = warm && std::memcmp(instance.fairing.start.data(), x, n * sizeof(glm::vec3)) == 0;
   // A convergence that an earlier evaluation began goes on from its annealed steps.
   const bool continuing = warm && instance.fairing.converging > 0;

@@ -10,8 +10,9 @@
 // (the first and last included) are measured against LBS evaluated on the same joint
 // matrices. With --fresh, every measured frame is a fresh start instead (SF_EVAL_FROM_REST, as
 // after a pose jump), and nothing is played between them. With --cuts, each animation's first
-// frame follows the previous animation's last without SF_EVAL_FROM_REST, as an engine that cuts
-// without saying so: a detected pose jump, a fresh start spread over evaluations. Everything is taken against the bind
+// frame follows the previous animation's last (the first animation's, the bind pose the tool
+// evaluated first) without SF_EVAL_FROM_REST, as an engine that cuts without saying so: where
+// the runtime detects the pose jump, a fresh start spread over evaluations. Everything is taken against the bind
 // pose in world space (the skin's joint matrices with no animation applied, LBS there):
 //   pairs added     intersecting pairs of non-adjacent triangles of the posed mesh that do not
 //                   intersect at the bind pose (quality_metrics.h)
@@ -87,7 +88,8 @@ const char* const kUsage =
     "  --fresh        every measured frame from rest (SF_EVAL_FROM_REST, as after a pose jump),\n"
     "                 nothing played between them (--fps unused): the quality of a fresh start\n"
     "  --cuts         each animation's first frame without SF_EVAL_FROM_REST, the instance going\n"
-    "                 on from the previous animation: an undeclared cut (a detected pose jump)\n"
+    "                 on from the previous animation: an undeclared cut (a pose jump where the\n"
+    "                 runtime detects one)\n"
     "  --waive LINE   with --check: report acceptance line LINE (worse-frames, pair-share,\n"
     "                 volume, rigid, rest, bind, refused) without failing on it (repeatable)\n"
     "  -j N           files measured in parallel (default: the number of cores)\n"

@@ -294,6 +294,7 @@ TEST_CASE("fair animation: one iteration per incremental evaluation by default; 
       total += iterations;
     }
     CHECK(total <= 32);
+    CHECK(total > first);  // the capsule does not converge within 16: the next frames went on
     return total;
   };
   set_bend(1.2f);
@@ -337,8 +338,8 @@ TEST_CASE("fair animation: one iteration per incremental evaluation by default; 
 
 // A fresh start spread over evaluations ends where one run whole in its evaluation ends: on a
 // held pose, the first evaluation and the two that go on with its convergence leave the control
-// mesh within 1e-4 of the diagonal of SF_EVAL_FROM_REST's (the warm start turns the correction
-// into each vertex's frame and back, which rounds).
+// mesh within 1e-7 of the diagonal of SF_EVAL_FROM_REST's (the warm start turns the correction
+// into each vertex's frame and back, which rounds: 4e-9 here).
 TEST_CASE("fair animation: a spread fresh start ends where SF_EVAL_FROM_REST does") {
   const skelform::test::RuntimeModel& model = skelform::test::capsule_model();
   sf_deformable_info info{};
@@ -379,7 +380,7 @@ TEST_CASE("fair animation: a spread fresh start ends where SF_EVAL_FROM_REST doe
   const float diagonal = glm::length(hi - lo);
   MESSAGE("spread against whole: " << largest / diagonal << " of the diagonal after three evaluations, "
                                    << first_largest / diagonal << " after the first");
-  CHECK(largest <= 1e-4f * diagonal);
+  CHECK(largest <= 1e-7f * diagonal);
   CHECK(largest < first_largest);  // the evaluations after the first did converge further
 }
 

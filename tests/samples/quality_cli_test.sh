@@ -56,10 +56,10 @@ PY
 "$QUALITY" "$WORK/character.glb" --frames 3 --fresh --check -q >"$WORK/fresh.txt" || fail "--fresh --check exited $?"
 grep -q "acceptance: every line holds" "$WORK/fresh.txt" || fail "--fresh --check summary: $(tail -3 "$WORK/fresh.txt")"
 
-# --cuts: each animation's first frame without SF_EVAL_FROM_REST (the first one is the
-# instance's first evaluation, a fresh start spread over evaluations; the later ones go on from
-# the previous animation). LBS measures the same as when played, skelform differs somewhere;
-# --check holds; and --cuts excludes --fresh.
+# --cuts: each animation's first frame without SF_EVAL_FROM_REST (the first one goes on from
+# the tool's evaluation of the bind pose, the later ones from the previous animation; a pose
+# jump where the runtime detects one). LBS measures the same as when played, skelform differs
+# somewhere; --check holds; and --cuts excludes --fresh.
 "$QUALITY" "$WORK/character.glb" --frames 3 --cuts --json -q >"$WORK/cuts.json" || fail "--cuts exited $?"
 python3 - "$WORK/report.json" "$WORK/cuts.json" <<'PY' || fail "the --cuts report"
 import json, sys

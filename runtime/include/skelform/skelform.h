@@ -379,8 +379,9 @@ typedef struct sf_eval_options {
  * does; or a switch between joint matrices and handles) discards the warm start and starts a
  * convergence of at most 32 iterations (or fairing_iterations, if larger); so does the first
  * evaluation. That evaluation runs 16 of them, and each next one 8 more (in place of its
- * fairing_iterations; either runs fairing_iterations if that is more) until the convergence is
- * done, so that no one frame pays for all of it.
+ * fairing_iterations; either runs fairing_iterations if that is more, or what is left of the
+ * convergence if that is less) until the convergence is done, so that no one frame pays for
+ * all of it.
  * SF_EVAL_FROM_REST discards the warm start too and runs the whole convergence in its own
  * evaluation: use it when the caller knows the pose jumped and wants that frame converged.
  * A pose held bit for bit comes to rest (the steps halve at each such evaluation). With
