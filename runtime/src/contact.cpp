@@ -571,10 +571,11 @@ ContactStats resolve_contacts(const ContactMesh& mesh, float scale, glm::vec3* d
   // After the first sweep, an active vertex that did not move when the pass last looked at it,
   // and near which nothing has moved since, is passed over: it would gather the same candidates
   // at the same places and decide again not to move (the output is the same bit for bit, only
-  // the work budget is spent less: a pass that ran out of it before may now finish). Near: a move's box (the moved vertex's star before and after
-  // it) meets the region of that look (regions). Between two looks at a vertex every other
-  // active vertex is looked at once, so a ring of as many moves holds those since. (With more
-  // active vertices than kContactSkipCapacity, every vertex is looked at in every sweep.)
+  // the work budget is spent less: a pass that ran out of it before may now finish). Near: a
+  // move's box (the moved vertex's star before and after it) meets the region of that look
+  // (regions). Between two looks at a vertex every other active vertex is looked at once, so a
+  // ring of as many moves holds those since. (With more active vertices than
+  // kContactSkipCapacity, every vertex is looked at in every sweep.)
   const size_t active_count = ws.active.size();
   const bool skipping = active_count <= ws.seen.size();
   uint32_t moves = 0;

@@ -12,8 +12,9 @@
 // after a pose jump), and nothing is played between them. With --cuts, each animation's first
 // frame follows the previous animation's last (the first animation's, the bind pose the tool
 // evaluated first) without SF_EVAL_FROM_REST, as an engine that cuts without saying so: where
-// the runtime detects the pose jump, a fresh start spread over evaluations. Everything is taken against the bind
-// pose in world space (the skin's joint matrices with no animation applied, LBS there):
+// the runtime detects the pose jump, a fresh start spread over evaluations. Everything is taken
+// against the bind pose in world space (the skin's joint matrices with no animation applied,
+// LBS there):
 //   pairs added     intersecting pairs of non-adjacent triangles of the posed mesh that do not
 //                   intersect at the bind pose (quality_metrics.h)
 //   at junctions    of the pairs added, those between two parts of the mesh (connected pieces)

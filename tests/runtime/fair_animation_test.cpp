@@ -324,12 +324,12 @@ TEST_CASE("fair animation: one iteration per incremental evaluation by default; 
   sf_eval_options many{};
   many.fairing_iterations = 24;
   uint32_t per_evaluation[3] = {};
-  for (uint32_t& iterations : per_evaluation) {
-    const std::vector<float> joints = flat(
-        skelform::test::bend_pose(model, 1, 1.2f + 0.05f * float(&iterations - per_evaluation), glm::vec3(0, 1, 0)));
+  for (int k = 0; k < 3; ++k) {
+    const std::vector<float> joints =
+        flat(skelform::test::bend_pose(model, 1, 1.2f + 0.05f * float(k), glm::vec3(0, 1, 0)));
     REQUIRE(sf_instance_set_joint_matrices(budget.instance, joints.data(), model.inverse_bind.size(), 0) == SF_OK);
     REQUIRE(sf_instance_evaluate(budget.instance, &many) == SF_OK);
-    REQUIRE(sf_instance_fairing_stats(budget.instance, &iterations, nullptr) == SF_OK);
+    REQUIRE(sf_instance_fairing_stats(budget.instance, &per_evaluation[k], nullptr) == SF_OK);
   }
   CHECK(per_evaluation[0] == 24);
   CHECK(per_evaluation[1] == 8);
