@@ -39,7 +39,8 @@ constexpr uint32_t kMaxHierarchyDepth = 64;
 using LeafLanes = uint64_t;
 
 struct TriangleHierarchy {
-  explicit TriangleHierarchy(const AllocatorRef& a) : nodes(a), parent(a), order(a), slot(a), leaf(a), corners(a) {}
+  explicit TriangleHierarchy(const AllocatorRef& a)
+      : nodes(a), parent(a), order(a), slot(a), leaf(a), corners(a), shared_in_leaf(a) {}
   Array<HierarchyNode> nodes;
   Array<uint32_t> parent;  // per node: its parent (the root's is ~0u)
   Array<uint32_t> order;   // triangle indices, leaf by leaf: position i is "slot" i
@@ -49,6 +50,9 @@ struct TriangleHierarchy {
   // triangle in slot i at k·stride + i), so a leaf's corners load as lanes; the padding
   // after the last slot holds ~0u, which names no vertex.
   Array<uint32_t> corners;
+  // Per slot: the lanes of its own leaf whose triangles share a corner with it (its own lane
+  // too), so that a leaf met against itself needs no corner compares.
+  Array<LeafLanes> shared_in_leaf;
   size_t slot_stride() const { return order.size() + kLeafTriangles; }
 };
 
@@ -144,6 +148,16 @@ inline TriangleHierarchy build_triangle_hierarchy(const glm::vec3* positions, co
     h.slot[t] = i;
     for (size_t k = 0; k < 3; ++k) h.corners[k * stride + i] = triangles[3 * size_t(t) + k];
   }
+  h.shared_in_leaf.assign(triangle_count, 0);
+  for (const HierarchyNode& node : h.nodes)
+    for (uint32_t i = 0; i < node.count; ++i)
+      for (uint32_t j = 0; j < node.count; ++j) {
+        bool shared = false;
+        for (size_t k = 0; k < 3; ++k)
+          for (size_t l = 0; l < 3; ++l)
+            shared |= h.corners[k * stride + node.first + i] == h.corners[l * stride + node.first + j];
+        h.shared_in_leaf[node.first + i] |= LeafLanes(shared ? 1 : 0) << j;
+      }
   return h;
 }
 
@@ -452,6 +466,94 @@ inline LeafLanes leaf_pair_portable(const LeafPairInput& in, uint32_t first_a, u
   return hit;
 }
 
+// The self kernel: the leaf of `count` triangles from slot `first` against itself. masks[i] gets
+// bit j for each lane j in (i, count) whose triangle's box meets triangle i's and shares no
+// corner with it (`shared`: TriangleHierarchy::shared_in_leaf from `first`), so each pair once
+// and no corner compares; returns the rows whose mask is not 0. Where the leaf's node box holds
+// its triangles' boxes (refit or grown), these are the pair kernel's masks with the leaf as B,
+// restricted to the lanes after each row.
+using LeafSelfKernel = LeafLanes (*)(const LeafPairInput& in, uint32_t first, uint32_t count, const LeafLanes* shared,
+                                     LeafLanes* masks);
+
+// The lanes after lane i of a leaf of `count` (≤ kLeafTriangles < 64).
+inline LeafLanes later_lanes(uint32_t i, uint32_t count) {
+  return ((LeafLanes(1) << count) - 1) & ~((LeafLanes(2) << i) - 1);
+}
+
+inline LeafLanes leaf_self_portable(const LeafPairInput& in, uint32_t first, uint32_t count, const LeafLanes* shared,
+                                    LeafLanes* masks) {
+  LeafLanes hit = 0;
+  const size_t bs = in.box_stride;
+  const float* p = in.planes + first;
+  for (uint32_t i = 0; i < count; ++i) {
+    LeafLanes mask = 0;
+    for (uint32_t j = i + 1; j < count; ++j) {
+      const bool meet = p[i] <= p[3 * bs + j] && p[j] <= p[3 * bs + i] && p[bs + i] <= p[4 * bs + j] &&
+                        p[bs + j] <= p[4 * bs + i] && p[2 * bs + i] <= p[5 * bs + j] && p[2 * bs + j] <= p[5 * bs + i];
+      mask |= LeafLanes(meet ? 1 : 0) << j;
+    }
+    masks[i] = mask & ~shared[i];
+    hit |= LeafLanes(masks[i] != 0) << i;
+  }
+  return hit;
+}
+
+#if defined(__SSE2__)
+inline LeafLanes leaf_self_sse2(const LeafPairInput& in, uint32_t first, uint32_t count, const LeafLanes* shared,
+                                LeafLanes* masks) {
+  LeafLanes hit = 0;
+  const size_t bs = in.box_stride;
+  const float* lo_x = in.planes + first;
+  for (uint32_t i = 0; i < count; ++i) {
+    const float* pa = lo_x + i;
+    const __m128 lx = _mm_set1_ps(pa[0]), ly = _mm_set1_ps(pa[bs]), lz = _mm_set1_ps(pa[2 * bs]);
+    const __m128 hx = _mm_set1_ps(pa[3 * bs]), hy = _mm_set1_ps(pa[4 * bs]), hz = _mm_set1_ps(pa[5 * bs]);
+    LeafLanes mask = 0;
+    // From the group holding lane i + 1; the lanes after the leaf are the next leaf's or
+    // padding (in bounds) and are masked off.
+    for (uint32_t g = (i + 1) & ~3u; g < count; g += 4) {
+      __m128 meet =
+          _mm_and_ps(_mm_cmple_ps(lx, _mm_loadu_ps(lo_x + 3 * bs + g)), _mm_cmple_ps(_mm_loadu_ps(lo_x + g), hx));
+      meet = _mm_and_ps(meet, _mm_cmple_ps(ly, _mm_loadu_ps(lo_x + 4 * bs + g)));
+      meet = _mm_and_ps(meet, _mm_cmple_ps(_mm_loadu_ps(lo_x + bs + g), hy));
+      meet = _mm_and_ps(meet, _mm_cmple_ps(lz, _mm_loadu_ps(lo_x + 5 * bs + g)));
+      meet = _mm_and_ps(meet, _mm_cmple_ps(_mm_loadu_ps(lo_x + 2 * bs + g), hz));
+      mask |= LeafLanes(_mm_movemask_ps(meet)) << g;
+    }
+    masks[i] = mask & later_lanes(i, count) & ~shared[i];
+    hit |= LeafLanes(masks[i] != 0) << i;
+  }
+  return hit;
+}
+#endif
+
+#if defined(SKELFORM_HIERARCHY_AVX2)
+__attribute__((target("avx2"))) inline LeafLanes leaf_self_avx2(const LeafPairInput& in, uint32_t first, uint32_t count,
+                                                                const LeafLanes* shared, LeafLanes* masks) {
+  LeafLanes hit = 0;
+  const size_t bs = in.box_stride;
+  const float* lo_x = in.planes + first;
+  for (uint32_t i = 0; i < count; ++i) {
+    const float* pa = lo_x + i;
+    const __m256 lx = _mm256_set1_ps(pa[0]), ly = _mm256_set1_ps(pa[bs]), lz = _mm256_set1_ps(pa[2 * bs]);
+    const __m256 hx = _mm256_set1_ps(pa[3 * bs]), hy = _mm256_set1_ps(pa[4 * bs]), hz = _mm256_set1_ps(pa[5 * bs]);
+    LeafLanes mask = 0;
+    for (uint32_t g = (i + 1) & ~7u; g < count; g += 8) {  // as in leaf_self_sse2
+      __m256 meet = _mm256_and_ps(_mm256_cmp_ps(lx, _mm256_loadu_ps(lo_x + 3 * bs + g), _CMP_LE_OQ),
+                                  _mm256_cmp_ps(_mm256_loadu_ps(lo_x + g), hx, _CMP_LE_OQ));
+      meet = _mm256_and_ps(meet, _mm256_cmp_ps(ly, _mm256_loadu_ps(lo_x + 4 * bs + g), _CMP_LE_OQ));
+      meet = _mm256_and_ps(meet, _mm256_cmp_ps(_mm256_loadu_ps(lo_x + bs + g), hy, _CMP_LE_OQ));
+      meet = _mm256_and_ps(meet, _mm256_cmp_ps(lz, _mm256_loadu_ps(lo_x + 5 * bs + g), _CMP_LE_OQ));
+      meet = _mm256_and_ps(meet, _mm256_cmp_ps(_mm256_loadu_ps(lo_x + 2 * bs + g), hz, _CMP_LE_OQ));
+      mask |= LeafLanes(_mm256_movemask_ps(meet)) << g;
+    }
+    masks[i] = mask & later_lanes(i, count) & ~shared[i];
+    hit |= LeafLanes(masks[i] != 0) << i;
+  }
+  return hit;
+}
+#endif
+
 // The fastest kernel this CPU runs: AVX2 where the CPU has it (checked once), else SSE2
 // (x86-64's baseline), else the portable loop. All give the same masks.
 inline LeafPairKernel leaf_pair_kernel() {
@@ -465,6 +567,20 @@ inline LeafPairKernel leaf_pair_kernel() {
   return &leaf_pair_sse2;
 #else
   return &leaf_pair_portable;
+#endif
+}
+
+inline LeafSelfKernel leaf_self_kernel() {  // as leaf_pair_kernel()
+#if defined(SKELFORM_HIERARCHY_AVX2)
+  static const LeafSelfKernel chosen = [] {
+    __builtin_cpu_init();
+    return __builtin_cpu_supports("avx2") ? LeafSelfKernel(&leaf_self_avx2) : LeafSelfKernel(&leaf_self_sse2);
+  }();
+  return chosen;
+#elif defined(__SSE2__)
+  return &leaf_self_sse2;
+#else
+  return &leaf_self_portable;
 #endif
 }
 
@@ -485,12 +601,15 @@ bool self_pairs_triangle_hierarchy(const TriangleHierarchy& h, const float* node
   detail::mark_wanted(h, wanted, node_wanted, leaf_wanted);
   const detail::LeafPairInput input{boxes.planes.data(), boxes.stride, h.corners.data(), h.slot_stride()};
   const detail::LeafPairKernel kernel = detail::leaf_pair_kernel();
+  const detail::LeafSelfKernel self_kernel = detail::leaf_self_kernel();
   LeafLanes masks[kLeafTriangles];
   // Leaf a's triangles against the lanes of leaf b: lane j of triangle i's row when bit j of
-  // allowed(i) is set. False when the visitor stopped.
+  // allowed(i) is set (a leaf against itself: of the lanes after i). False when the visitor
+  // stopped.
   auto leaves = [&](uint32_t a, uint32_t b, auto&& allowed) {
     const HierarchyNode na = h.nodes[a], nb = h.nodes[b];
-    LeafLanes hit = kernel(input, na.first, na.count, nb.first, node_boxes + 6 * size_t(b), masks);
+    LeafLanes hit = a == b ? self_kernel(input, na.first, na.count, h.shared_in_leaf.data() + na.first, masks)
+                           : kernel(input, na.first, na.count, nb.first, node_boxes + 6 * size_t(b), masks);
     while (hit) {
       const uint32_t i = uint32_t(__builtin_ctzll(hit));
       hit &= hit - 1;

@@ -182,7 +182,7 @@ TEST_CASE("triangle hierarchy: the self-pair search finds what a brute-force loo
   }
 }
 
-TEST_CASE("triangle hierarchy: every leaf-pair kernel gives the portable loop's masks and rows") {
+TEST_CASE("triangle hierarchy: every leaf-pair and leaf-self kernel gives the portable loop's masks and rows") {
   std::vector<glm::vec3> rest, now;
   std::vector<uint32_t> tri;
   grid(23, 1.3f, rest, now, tri);
@@ -201,7 +201,16 @@ TEST_CASE("triangle hierarchy: every leaf-pair kernel gives the portable loop's 
   if (__builtin_cpu_supports("avx2")) kernels.emplace_back("avx2", &detail::leaf_pair_avx2);
 #endif
   kernels.emplace_back("chosen", detail::leaf_pair_kernel());
-  std::map<std::string, size_t> mismatches;
+  std::vector<std::pair<const char*, detail::LeafSelfKernel>> self_kernels{{"portable", &detail::leaf_self_portable}};
+#if defined(__SSE2__)
+  self_kernels.emplace_back("sse2", &detail::leaf_self_sse2);
+#endif
+#if defined(SKELFORM_HIERARCHY_AVX2)
+  if (__builtin_cpu_supports("avx2")) self_kernels.emplace_back("avx2", &detail::leaf_self_avx2);
+#endif
+  self_kernels.emplace_back("chosen", detail::leaf_self_kernel());
+  std::map<std::string, size_t> mismatches, self_mismatches;
+  size_t self_bits = 0;
   size_t pairs = 0, bits = 0, hit_mismatches = 0;  // hit_mismatches: rows the portable loop names wrongly
   for (uint32_t a = 0; a < h.nodes.size(); ++a) {
     if (h.nodes[a].count == 0) continue;
@@ -218,6 +227,20 @@ TEST_CASE("triangle hierarchy: every leaf-pair kernel gives the portable loop's 
         for (uint32_t i = 0; i < h.nodes[a].count; ++i) mismatches[kernel.first] += got[i] != expected[i] ? 1 : 0;
         mismatches[kernel.first] += hit != expected_hit ? 1 : 0;
       }
+      if (a == b) {  // a leaf against itself: the self kernels give the lanes after each row
+        for (const auto& kernel : self_kernels) {
+          const skelform::runtime::LeafLanes hit =
+              kernel.second(input, h.nodes[a].first, h.nodes[a].count, h.shared_in_leaf.data() + h.nodes[a].first, got);
+          skelform::runtime::LeafLanes later_hit = 0;
+          for (uint32_t i = 0; i < h.nodes[a].count; ++i) {
+            const skelform::runtime::LeafLanes later = expected[i] & detail::later_lanes(i, h.nodes[a].count);
+            self_mismatches[kernel.first] += got[i] != later ? 1 : 0;
+            later_hit |= skelform::runtime::LeafLanes(later != 0 ? 1 : 0) << i;
+            self_bits += size_t(__builtin_popcountll(later));
+          }
+          self_mismatches[kernel.first] += hit != later_hit ? 1 : 0;
+        }
+      }
       ++pairs;
       for (uint32_t i = 0; i < h.nodes[a].count; ++i) bits += size_t(__builtin_popcountll(expected[i]));
     }
@@ -226,6 +249,11 @@ TEST_CASE("triangle hierarchy: every leaf-pair kernel gives the portable loop's 
     INFO(kernel.first);
     CHECK(mismatches[kernel.first] == 0);
   }
+  for (const auto& kernel : self_kernels) {
+    INFO("self " << kernel.first);
+    CHECK(self_mismatches[kernel.first] == 0);
+  }
+  CHECK(self_bits > 100);
   CHECK(hit_mismatches == 0);  // each kernel returns the rows whose mask is not 0
   CHECK(pairs > 100);
   CHECK(bits > 1000);  // the masks are not all empty
