@@ -334,3 +334,41 @@ TEST_CASE("triangle hierarchy: a visitor that returns false stops either search 
                                   [&](uint32_t) { return ++visits < 2; }));
   CHECK(visits == 2);
 }
+
+TEST_CASE("triangle hierarchy: a surface-area split parts two clusters where they are apart") {
+  namespace detail = skelform::runtime::detail;
+  // 60 small triangles' centroids along x: 20 near 0, 40 near 10, so a median split would cut
+  // the second cluster; the cheapest plane (each side at least a quarter) lies in the gap.
+  std::vector<glm::vec3> centroid, lo, hi;
+  for (int i = 0; i < 60; ++i) {
+    const float x = i < 20 ? 0.01f * float(i) : 10.0f + 0.01f * float(i);
+    centroid.emplace_back(x, 0.3f * float(i % 3), 0.0f);
+    lo.push_back(centroid.back() - glm::vec3(0.05f));
+    hi.push_back(centroid.back() + glm::vec3(0.05f));
+  }
+  std::vector<uint32_t> order(60);
+  for (uint32_t i = 0; i < 60; ++i) order[i] = 59 - i;  // any order
+  glm::vec3 c_lo(1e30f), c_hi(-1e30f);
+  for (const glm::vec3& c : centroid) c_lo = glm::min(c_lo, c), c_hi = glm::max(c_hi, c);
+  const uint32_t left =
+      detail::surface_area_split(order.data(), 60, centroid.data(), lo.data(), hi.data(), c_lo, c_hi - c_lo);
+  CHECK(left == 20);
+  for (uint32_t i = 0; i < 60; ++i) CHECK((order[i] < 20) == (i < left));  // the near cluster first
+  std::vector<uint32_t> sorted = order;
+  std::sort(sorted.begin(), sorted.end());
+  for (uint32_t i = 0; i < 60; ++i) CHECK(sorted[i] == i);  // a permutation
+
+  // Every centroid at one point: no plane has triangles on both sides, so none qualifies.
+  std::vector<glm::vec3> same(60, glm::vec3(1.0f));
+  CHECK(detail::surface_area_split(order.data(), 60, same.data(), lo.data(), hi.data(), glm::vec3(1.0f),
+                                   glm::vec3(0.0f)) == 0);
+  // A cluster of 55 and one of 5: a side of 5 is under a quarter, so the plane moves into the
+  // larger cluster and each side holds at least 15.
+  for (int i = 0; i < 60; ++i) centroid[size_t(i)].x = i < 5 ? 0.0f : 10.0f + 0.01f * float(i);
+  c_lo = glm::vec3(1e30f), c_hi = glm::vec3(-1e30f);
+  for (const glm::vec3& c : centroid) c_lo = glm::min(c_lo, c), c_hi = glm::max(c_hi, c);
+  const uint32_t part =
+      detail::surface_area_split(order.data(), 60, centroid.data(), lo.data(), hi.data(), c_lo, c_hi - c_lo);
+  CHECK(part >= 15);
+  CHECK(part <= 45);
+}
