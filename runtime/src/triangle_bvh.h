@@ -36,8 +36,8 @@ struct HierarchyNode {
 constexpr uint32_t kLeafTriangles = 32;
 constexpr uint32_t kMaxHierarchyDepth = 64;
 // Surface-area splits down to this depth, median splits below: a surface-area split leaves at
-// most three quarters of a node on a side, so at depth 40 a node of 2^32 triangles holds under
-// 2^16, and median splits finish within the depth limit.
+// least a quarter of a node (rounded down) on each side, so at depth 40 a node of 2^32
+// triangles holds under 2^16, and median splits finish within the depth limit.
 constexpr uint32_t kSurfaceSplitDepth = 40;
 // A leaf's lanes as bits of one word.
 using LeafLanes = uint64_t;
@@ -157,9 +157,9 @@ inline uint32_t surface_area_split(uint32_t* order, uint32_t count, const glm::v
 
 // Builds the hierarchy of `triangle_count` triangles (3 vertex indices each into `positions`)
 // by binned surface-area splits of their centroids (detail::surface_area_split: smaller,
-// less overlapping boxes than median splits, so fewer node pairs meet; a warm evaluation's
-// guard search costs 3-6 % fewer instructions), a median split along the longest axis where
-// none qualifies, at most kLeafTriangles per leaf. Throws std::bad_alloc.
+// less overlapping boxes than median splits, so fewer node pairs meet: a warm evaluation costs
+// 3.5-6 % fewer instructions), a median split along the longest axis where none qualifies, at
+// most kLeafTriangles per leaf. Throws std::bad_alloc.
 inline TriangleHierarchy build_triangle_hierarchy(const glm::vec3* positions, const uint32_t* triangles,
                                                   uint32_t triangle_count, const AllocatorRef& allocator) {
   TriangleHierarchy h(allocator);
@@ -558,23 +558,25 @@ inline LeafLanes leaf_pair_portable(const LeafPairInput& in, uint32_t first_a, u
 // The self kernel: the leaf of `count` triangles from slot `first` against itself. masks[i] gets
 // bit j for each lane j in (i, count) whose triangle's box meets triangle i's and shares no
 // corner with it (`shared`: TriangleHierarchy::shared_in_leaf from `first`), so each pair once
-// and no corner compares; returns the rows whose mask is not 0. Where the leaf's node box holds
-// its triangles' boxes (refit or grown), these are the pair kernel's masks with the leaf as B,
-// restricted to the lanes after each row.
-using LeafSelfKernel = LeafLanes (*)(const LeafPairInput& in, uint32_t first, uint32_t count, const LeafLanes* shared,
-                                     LeafLanes* masks);
+// and no corner compares; masks[i] is 0 when triangle i's box misses the leaf's node box
+// (`node_box`), as in the pair kernel. Returns the rows whose mask is not 0. These are the pair
+// kernel's masks with the leaf as B, restricted to the lanes after each row.
+using LeafSelfKernel = LeafLanes (*)(const LeafPairInput& in, uint32_t first, uint32_t count, const float* node_box,
+                                     const LeafLanes* shared, LeafLanes* masks);
 
 // The lanes after lane i of a leaf of `count` (≤ kLeafTriangles < 64).
 inline LeafLanes later_lanes(uint32_t i, uint32_t count) {
   return ((LeafLanes(1) << count) - 1) & ~((LeafLanes(2) << i) - 1);
 }
 
-inline LeafLanes leaf_self_portable(const LeafPairInput& in, uint32_t first, uint32_t count, const LeafLanes* shared,
-                                    LeafLanes* masks) {
+inline LeafLanes leaf_self_portable(const LeafPairInput& in, uint32_t first, uint32_t count, const float* node_box,
+                                    const LeafLanes* shared, LeafLanes* masks) {
   LeafLanes hit = 0;
   const size_t bs = in.box_stride;
   const float* p = in.planes + first;
   for (uint32_t i = 0; i < count; ++i) {
+    masks[i] = 0;
+    if (!box_meets_node(in, first + i, node_box)) continue;
     LeafLanes mask = 0;
     for (uint32_t j = i + 1; j < count; ++j) {
       const bool meet = p[i] <= p[3 * bs + j] && p[j] <= p[3 * bs + i] && p[bs + i] <= p[4 * bs + j] &&
@@ -588,12 +590,14 @@ inline LeafLanes leaf_self_portable(const LeafPairInput& in, uint32_t first, uin
 }
 
 #if defined(__SSE2__)
-inline LeafLanes leaf_self_sse2(const LeafPairInput& in, uint32_t first, uint32_t count, const LeafLanes* shared,
-                                LeafLanes* masks) {
+inline LeafLanes leaf_self_sse2(const LeafPairInput& in, uint32_t first, uint32_t count, const float* node_box,
+                                const LeafLanes* shared, LeafLanes* masks) {
   LeafLanes hit = 0;
   const size_t bs = in.box_stride;
   const float* lo_x = in.planes + first;
   for (uint32_t i = 0; i < count; ++i) {
+    masks[i] = 0;
+    if (!box_meets_node(in, first + i, node_box)) continue;
     const float* pa = lo_x + i;
     const __m128 lx = _mm_set1_ps(pa[0]), ly = _mm_set1_ps(pa[bs]), lz = _mm_set1_ps(pa[2 * bs]);
     const __m128 hx = _mm_set1_ps(pa[3 * bs]), hy = _mm_set1_ps(pa[4 * bs]), hz = _mm_set1_ps(pa[5 * bs]);
@@ -618,11 +622,32 @@ inline LeafLanes leaf_self_sse2(const LeafPairInput& in, uint32_t first, uint32_
 
 #if defined(SKELFORM_HIERARCHY_AVX2)
 __attribute__((target("avx2"))) inline LeafLanes leaf_self_avx2(const LeafPairInput& in, uint32_t first, uint32_t count,
-                                                                const LeafLanes* shared, LeafLanes* masks) {
+                                                                const float* node_box, const LeafLanes* shared,
+                                                                LeafLanes* masks) {
   LeafLanes hit = 0;
   const size_t bs = in.box_stride;
   const float* lo_x = in.planes + first;
+  // The rows whose box meets the node box, as in leaf_pair_avx2: all of them unless a box is
+  // not finite.
+  LeafLanes rows = 0;
+  {
+    const __m256 nlx = _mm256_set1_ps(node_box[0]), nly = _mm256_set1_ps(node_box[1]),
+                 nlz = _mm256_set1_ps(node_box[2]);
+    const __m256 nhx = _mm256_set1_ps(node_box[3]), nhy = _mm256_set1_ps(node_box[4]),
+                 nhz = _mm256_set1_ps(node_box[5]);
+    for (uint32_t g = 0; g < count; g += 8) {
+      __m256 meet = _mm256_and_ps(_mm256_cmp_ps(_mm256_loadu_ps(lo_x + g), nhx, _CMP_LE_OQ),
+                                  _mm256_cmp_ps(nlx, _mm256_loadu_ps(lo_x + 3 * bs + g), _CMP_LE_OQ));
+      meet = _mm256_and_ps(meet, _mm256_cmp_ps(_mm256_loadu_ps(lo_x + bs + g), nhy, _CMP_LE_OQ));
+      meet = _mm256_and_ps(meet, _mm256_cmp_ps(nly, _mm256_loadu_ps(lo_x + 4 * bs + g), _CMP_LE_OQ));
+      meet = _mm256_and_ps(meet, _mm256_cmp_ps(_mm256_loadu_ps(lo_x + 2 * bs + g), nhz, _CMP_LE_OQ));
+      meet = _mm256_and_ps(meet, _mm256_cmp_ps(nlz, _mm256_loadu_ps(lo_x + 5 * bs + g), _CMP_LE_OQ));
+      rows |= LeafLanes(_mm256_movemask_ps(meet)) << g;
+    }
+  }
   for (uint32_t i = 0; i < count; ++i) {
+    masks[i] = 0;
+    if (!((rows >> i) & 1)) continue;
     const float* pa = lo_x + i;
     const __m256 lx = _mm256_set1_ps(pa[0]), ly = _mm256_set1_ps(pa[bs]), lz = _mm256_set1_ps(pa[2 * bs]);
     const __m256 hx = _mm256_set1_ps(pa[3 * bs]), hy = _mm256_set1_ps(pa[4 * bs]), hz = _mm256_set1_ps(pa[5 * bs]);
@@ -697,7 +722,8 @@ bool self_pairs_triangle_hierarchy(const TriangleHierarchy& h, const float* node
   // stopped.
   auto leaves = [&](uint32_t a, uint32_t b, auto&& allowed) {
     const HierarchyNode na = h.nodes[a], nb = h.nodes[b];
-    LeafLanes hit = a == b ? self_kernel(input, na.first, na.count, h.shared_in_leaf.data() + na.first, masks)
+    LeafLanes hit = a == b ? self_kernel(input, na.first, na.count, node_boxes + 6 * size_t(a),
+                                         h.shared_in_leaf.data() + na.first, masks)
                            : kernel(input, na.first, na.count, nb.first, node_boxes + 6 * size_t(b), masks);
     while (hit) {
       const uint32_t i = uint32_t(__builtin_ctzll(hit));

@@ -230,7 +230,8 @@ TEST_CASE("triangle hierarchy: every leaf-pair and leaf-self kernel gives the po
       if (a == b) {  // a leaf against itself: the self kernels give the lanes after each row
         for (const auto& kernel : self_kernels) {
           const skelform::runtime::LeafLanes hit =
-              kernel.second(input, h.nodes[a].first, h.nodes[a].count, h.shared_in_leaf.data() + h.nodes[a].first, got);
+              kernel.second(input, h.nodes[a].first, h.nodes[a].count, node_boxes.data() + 6 * size_t(a),
+                            h.shared_in_leaf.data() + h.nodes[a].first, got);
           skelform::runtime::LeafLanes later_hit = 0;
           for (uint32_t i = 0; i < h.nodes[a].count; ++i) {
             const skelform::runtime::LeafLanes later = expected[i] & detail::later_lanes(i, h.nodes[a].count);
@@ -239,6 +240,12 @@ TEST_CASE("triangle hierarchy: every leaf-pair and leaf-self kernel gives the po
             self_bits += size_t(__builtin_popcountll(later));
           }
           self_mismatches[kernel.first] += hit != later_hit ? 1 : 0;
+          // A node box that is not finite (a NaN position in the leaf) meets no row: nothing.
+          const float nan_box[6] = {std::nanf(""), 0.0f, 0.0f, 1.0f, 1.0f, 1.0f};
+          const skelform::runtime::LeafLanes nan_hit = kernel.second(input, h.nodes[a].first, h.nodes[a].count, nan_box,
+                                                                     h.shared_in_leaf.data() + h.nodes[a].first, got);
+          self_mismatches[kernel.first] += nan_hit != 0 ? 1 : 0;
+          for (uint32_t i = 0; i < h.nodes[a].count; ++i) self_mismatches[kernel.first] += got[i] != 0 ? 1 : 0;
         }
       }
       ++pairs;
@@ -362,13 +369,58 @@ TEST_CASE("triangle hierarchy: a surface-area split parts two clusters where the
   std::vector<glm::vec3> same(60, glm::vec3(1.0f));
   CHECK(detail::surface_area_split(order.data(), 60, same.data(), lo.data(), hi.data(), glm::vec3(1.0f),
                                    glm::vec3(0.0f)) == 0);
-  // A cluster of 55 and one of 5: a side of 5 is under a quarter, so the plane moves into the
-  // larger cluster and each side holds at least 15.
-  for (int i = 0; i < 60; ++i) centroid[size_t(i)].x = i < 5 ? 0.0f : 10.0f + 0.01f * float(i);
-  c_lo = glm::vec3(1e30f), c_hi = glm::vec3(-1e30f);
-  for (const glm::vec3& c : centroid) c_lo = glm::min(c_lo, c), c_hi = glm::max(c_hi, c);
-  const uint32_t part =
-      detail::surface_area_split(order.data(), 60, centroid.data(), lo.data(), hi.data(), c_lo, c_hi - c_lo);
+  // A cluster of 5 at x = 0 and 55 spread over x = 10..20, all at one y and z: a side of 5 is
+  // under a quarter (15), so the plane moves into the larger cluster, each side holding at least
+  // 15, every centroid on the left before every one on the right.
+  for (int i = 0; i < 60; ++i) {
+    centroid[size_t(i)] = glm::vec3(i < 5 ? 0.0f : 10.0f + 10.0f * float(i - 5) / 54.0f, 0.0f, 0.0f);
+    lo[size_t(i)] = centroid[size_t(i)] - glm::vec3(0.05f);
+    hi[size_t(i)] = centroid[size_t(i)] + glm::vec3(0.05f);
+  }
+  const uint32_t part = detail::surface_area_split(order.data(), 60, centroid.data(), lo.data(), hi.data(),
+                                                   glm::vec3(0.0f), glm::vec3(20.0f, 0.0f, 0.0f));
   CHECK(part >= 15);
   CHECK(part <= 45);
+  float left_max = -1e30f, right_min = 1e30f;
+  for (uint32_t i = 0; i < 60; ++i) {
+    if (i < part)
+      left_max = std::max(left_max, centroid[order[i]].x);
+    else
+      right_min = std::min(right_min, centroid[order[i]].x);
+  }
+  CHECK(left_max < right_min);
+  CHECK(left_max >= 10.0f);  // inside the larger cluster
+}
+
+TEST_CASE("triangle hierarchy: every triangle in one leaf of 1 to kLeafTriangles, whatever the centroids") {
+  const uint32_t leaf_max = skelform::runtime::kLeafTriangles;
+  auto check_structure = [&](const std::vector<glm::vec3>& p, const std::vector<uint32_t>& tri) {
+    const uint32_t n = uint32_t(tri.size() / 3);
+    const auto h = build_triangle_hierarchy(p.data(), tri.data(), n, AllocatorRef{});
+    std::vector<int> seen(n, 0);
+    size_t leaves = 0, bad = 0;
+    for (size_t k = 0; k < h.nodes.size(); ++k) {
+      const auto node = h.nodes[k];
+      if (node.count == 0) {  // inner: two children after it
+        bad += node.first <= k || node.first + 1 >= h.nodes.size() ? 1 : 0;
+        continue;
+      }
+      ++leaves;
+      bad += node.count > leaf_max ? 1 : 0;
+      for (uint32_t i = node.first; i < node.first + node.count; ++i) ++seen[h.order[i]];
+    }
+    CHECK(bad == 0);
+    CHECK(std::count(seen.begin(), seen.end(), 1) == std::ptrdiff_t(n));
+    CHECK(leaves >= (n + leaf_max - 1) / leaf_max);
+  };
+  std::vector<glm::vec3> rest, now;
+  std::vector<uint32_t> tri;
+  grid(23, 1.3f, rest, now, tri);
+  check_structure(rest, tri);
+  // Every triangle at one place (the bins cannot split them): median splits.
+  check_structure(std::vector<glm::vec3>(rest.size(), glm::vec3(2.0f)), tri);
+  // A few vertices thrown far out: two clusters of very different sizes, huge coordinates.
+  std::vector<glm::vec3> far = rest;
+  for (size_t v = 0; v < far.size(); v += 50) far[v] *= 1e30f;
+  check_structure(far, tri);
 }
