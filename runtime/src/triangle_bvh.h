@@ -558,8 +558,8 @@ inline LeafLanes leaf_pair_portable(const LeafPairInput& in, uint32_t first_a, u
 // The self kernel: the leaf of `count` triangles from slot `first` against itself. masks[i] gets
 // bit j for each lane j in (i, count) whose triangle's box meets triangle i's and shares no
 // corner with it (`shared`: TriangleHierarchy::shared_in_leaf from `first`), so each pair once
-// and no corner compares; masks[i] is 0 when triangle i's box misses the leaf's node box
-// (`node_box`), as in the pair kernel. Returns the rows whose mask is not 0. These are the pair
+// and no corner compares; every mask is 0 when the leaf's node box (`node_box`, holding its
+// triangles' boxes) has a NaN. Returns the rows whose mask is not 0. These are the pair
 // kernel's masks with the leaf as B, restricted to the lanes after each row.
 using LeafSelfKernel = LeafLanes (*)(const LeafPairInput& in, uint32_t first, uint32_t count, const float* node_box,
                                      const LeafLanes* shared, LeafLanes* masks);
@@ -569,14 +569,22 @@ inline LeafLanes later_lanes(uint32_t i, uint32_t count) {
   return ((LeafLanes(1) << count) - 1) & ~((LeafLanes(2) << i) - 1);
 }
 
+// Whether a node box has no NaN. Holding its leaf's boxes, it then meets every row whose box is
+// a box (one with a NaN meets nothing anyway); with a NaN it meets none, as in the pair kernels.
+inline bool node_box_usable(const float* b) {
+  return b[0] == b[0] && b[1] == b[1] && b[2] == b[2] && b[3] == b[3] && b[4] == b[4] && b[5] == b[5];
+}
+
 inline LeafLanes leaf_self_portable(const LeafPairInput& in, uint32_t first, uint32_t count, const float* node_box,
                                     const LeafLanes* shared, LeafLanes* masks) {
   LeafLanes hit = 0;
   const size_t bs = in.box_stride;
   const float* p = in.planes + first;
+  if (!node_box_usable(node_box)) {
+    for (uint32_t i = 0; i < count; ++i) masks[i] = 0;
+    return 0;
+  }
   for (uint32_t i = 0; i < count; ++i) {
-    masks[i] = 0;
-    if (!box_meets_node(in, first + i, node_box)) continue;
     LeafLanes mask = 0;
     for (uint32_t j = i + 1; j < count; ++j) {
       const bool meet = p[i] <= p[3 * bs + j] && p[j] <= p[3 * bs + i] && p[bs + i] <= p[4 * bs + j] &&
@@ -595,9 +603,11 @@ inline LeafLanes leaf_self_sse2(const LeafPairInput& in, uint32_t first, uint32_
   LeafLanes hit = 0;
   const size_t bs = in.box_stride;
   const float* lo_x = in.planes + first;
+  if (!node_box_usable(node_box)) {
+    for (uint32_t i = 0; i < count; ++i) masks[i] = 0;
+    return 0;
+  }
   for (uint32_t i = 0; i < count; ++i) {
-    masks[i] = 0;
-    if (!box_meets_node(in, first + i, node_box)) continue;
     const float* pa = lo_x + i;
     const __m128 lx = _mm_set1_ps(pa[0]), ly = _mm_set1_ps(pa[bs]), lz = _mm_set1_ps(pa[2 * bs]);
     const __m128 hx = _mm_set1_ps(pa[3 * bs]), hy = _mm_set1_ps(pa[4 * bs]), hz = _mm_set1_ps(pa[5 * bs]);
@@ -627,27 +637,11 @@ __attribute__((target("avx2"))) inline LeafLanes leaf_self_avx2(const LeafPairIn
   LeafLanes hit = 0;
   const size_t bs = in.box_stride;
   const float* lo_x = in.planes + first;
-  // The rows whose box meets the node box, as in leaf_pair_avx2: all of them unless a box is
-  // not finite.
-  LeafLanes rows = 0;
-  {
-    const __m256 nlx = _mm256_set1_ps(node_box[0]), nly = _mm256_set1_ps(node_box[1]),
-                 nlz = _mm256_set1_ps(node_box[2]);
-    const __m256 nhx = _mm256_set1_ps(node_box[3]), nhy = _mm256_set1_ps(node_box[4]),
-                 nhz = _mm256_set1_ps(node_box[5]);
-    for (uint32_t g = 0; g < count; g += 8) {
-      __m256 meet = _mm256_and_ps(_mm256_cmp_ps(_mm256_loadu_ps(lo_x + g), nhx, _CMP_LE_OQ),
-                                  _mm256_cmp_ps(nlx, _mm256_loadu_ps(lo_x + 3 * bs + g), _CMP_LE_OQ));
-      meet = _mm256_and_ps(meet, _mm256_cmp_ps(_mm256_loadu_ps(lo_x + bs + g), nhy, _CMP_LE_OQ));
-      meet = _mm256_and_ps(meet, _mm256_cmp_ps(nly, _mm256_loadu_ps(lo_x + 4 * bs + g), _CMP_LE_OQ));
-      meet = _mm256_and_ps(meet, _mm256_cmp_ps(_mm256_loadu_ps(lo_x + 2 * bs + g), nhz, _CMP_LE_OQ));
-      meet = _mm256_and_ps(meet, _mm256_cmp_ps(nlz, _mm256_loadu_ps(lo_x + 5 * bs + g), _CMP_LE_OQ));
-      rows |= LeafLanes(_mm256_movemask_ps(meet)) << g;
-    }
+  if (!node_box_usable(node_box)) {
+    for (uint32_t i = 0; i < count; ++i) masks[i] = 0;
+    return 0;
   }
   for (uint32_t i = 0; i < count; ++i) {
-    masks[i] = 0;
-    if (!((rows >> i) & 1)) continue;
     const float* pa = lo_x + i;
     const __m256 lx = _mm256_set1_ps(pa[0]), ly = _mm256_set1_ps(pa[bs]), lz = _mm256_set1_ps(pa[2 * bs]);
     const __m256 hx = _mm256_set1_ps(pa[3 * bs]), hy = _mm256_set1_ps(pa[4 * bs]), hz = _mm256_set1_ps(pa[5 * bs]);
