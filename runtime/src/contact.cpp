@@ -1,7 +1,7 @@
 // The contact pass (contact.h).
 #include "contact.h"
 
-#include "skelform/core/triangle_intersection.h"
+#include "triangles_meet.h"
 
 #include <glm/geometric.hpp>
 
@@ -24,44 +24,6 @@ constexpr uint8_t kActive = 1, kMoved = 2, kMovable = 4;  // ContactWorkspace::s
 constexpr uint32_t kLookAgain = UINT32_MAX;               // ContactWorkspace::seen: it moved then
 
 bool finite(const glm::vec3& v) { return std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z); }
-
-// Do the projections of the triangles on `axis` miss each other?
-bool separated(const glm::vec3& axis, const glm::vec3* a, const glm::vec3* b) {
-  const float a0 = glm::dot(axis, a[0]), a1 = glm::dot(axis, a[1]), a2 = glm::dot(axis, a[2]);
-  const float b0 = glm::dot(axis, b[0]), b1 = glm::dot(axis, b[1]), b2 = glm::dot(axis, b[2]);
-  return std::max(a0, std::max(a1, a2)) < std::min(b0, std::min(b1, b2)) ||
-         std::max(b0, std::max(b1, b2)) < std::min(a0, std::min(a1, a2));
-}
-
-// Separating-axis test of two triangles (face normals, edge × edge, in-plane edge normals),
-// relative to the first triangle's first corner.
-bool triangles_meet(const glm::vec3& p0, const glm::vec3& p1, const glm::vec3& p2, const glm::vec3& q0,
-                    const glm::vec3& q1, const glm::vec3& q2) {
-  // Möller's early outs: all of one triangle's corners strictly on one side of the other's plane.
-  {
-    const glm::vec3 np = glm::cross(p1 - p0, p2 - p0);
-    const float d0 = glm::dot(np, q0 - p0), d1 = glm::dot(np, q1 - p0), d2 = glm::dot(np, q2 - p0);
-    if ((d0 > 0.0f && d1 > 0.0f && d2 > 0.0f) || (d0 < 0.0f && d1 < 0.0f && d2 < 0.0f)) return false;
-    const glm::vec3 nq = glm::cross(q1 - q0, q2 - q0);
-    const float e0 = glm::dot(nq, p0 - q0), e1 = glm::dot(nq, p1 - q0), e2 = glm::dot(nq, p2 - q0);
-    if ((e0 > 0.0f && e1 > 0.0f && e2 > 0.0f) || (e0 < 0.0f && e1 < 0.0f && e2 < 0.0f)) return false;
-  }
-  const glm::vec3 a[3] = {glm::vec3(0.0f), p1 - p0, p2 - p0};
-  const glm::vec3 b[3] = {q0 - p0, q1 - p0, q2 - p0};
-  const glm::vec3 ea[3] = {a[1] - a[0], a[2] - a[1], a[0] - a[2]};
-  const glm::vec3 eb[3] = {b[1] - b[0], b[2] - b[1], b[0] - b[2]};
-  const glm::vec3 na = glm::cross(ea[0], ea[1]), nb = glm::cross(eb[0], eb[1]);
-  auto splits = [&](const glm::vec3& axis) { return glm::dot(axis, axis) > 0.0f && separated(axis, a, b); };
-  if (splits(na) || splits(nb)) return false;
-  for (const glm::vec3& u : ea)
-    for (const glm::vec3& w : eb)
-      if (splits(glm::cross(u, w))) return false;
-  for (const glm::vec3& u : ea)
-    if (splits(glm::cross(na, u))) return false;
-  for (const glm::vec3& w : eb)
-    if (splits(glm::cross(nb, w))) return false;
-  return true;
-}
 
 struct CellRange {
   int lo[3], hi[3];
