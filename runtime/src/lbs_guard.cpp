@@ -1,10 +1,10 @@
 #include "lbs_guard.h"
 
 #include "asset.h"
+#include "exact_triangles.h"
 #include "instance.h"
 #include "skin_blend.h"
 #include "triangle_bvh.h"
-#include "skelform/core/triangle_intersection.h"
 
 #include <glm/common.hpp>
 
@@ -82,7 +82,8 @@ class GuardPass {
         ws_(ws),
         tri_(mesh.triangles.data()),
         rep_(mesh.representative.data()),
-        h_(mesh.hierarchy) {}
+        h_(mesh.hierarchy),
+        intersect_(exact_triangle_test()) {}
 
   // The positions of the vertices in `only` and the boxes of their triangles; lists the
   // triangles with a moved corner among those.
@@ -250,16 +251,15 @@ class GuardPass {
     const uint32_t* ct = tri_ + 3 * size_t(t);
     const uint32_t* cs = tri_ + 3 * size_t(s);
     const glm::vec3* x = ws_.positions.data();
-    if (!geometry::triangles_intersect(widen(x[ct[0]]), widen(x[ct[1]]), widen(x[ct[2]]), widen(x[cs[0]]),
-                                       widen(x[cs[1]]), widen(x[cs[2]])))
+    if (!intersect_(widen(x[ct[0]]), widen(x[ct[1]]), widen(x[ct[2]]), widen(x[cs[0]]), widen(x[cs[1]]),
+                    widen(x[cs[2]])))
       return;
     // The model has this pair as made: neither the guard nor the contact pass acts on it.
     const uint64_t key = pair_key(t, s);
     if (mesh_.intersects_at_rest(key)) return;
     const glm::vec3* l = lbs_.positions;
-    const bool lbs_has =
-        geometry::triangles_intersect(widen(l[rep_[ct[0]]]), widen(l[rep_[ct[1]]]), widen(l[rep_[ct[2]]]),
-                                      widen(l[rep_[cs[0]]]), widen(l[rep_[cs[1]]]), widen(l[rep_[cs[2]]]));
+    const bool lbs_has = intersect_(widen(l[rep_[ct[0]]]), widen(l[rep_[ct[1]]]), widen(l[rep_[ct[2]]]),
+                                    widen(l[rep_[cs[0]]]), widen(l[rep_[cs[1]]]), widen(l[rep_[cs[2]]]));
     if (record_) {
       if (ws_.pair_keys.size() < ws_.pair_keys.capacity() && ws_.pair_added.size() < ws_.pair_added.capacity()) {
         ws_.pair_keys.push_back(key);  // no allocation
@@ -301,6 +301,7 @@ class GuardPass {
   const uint32_t* tri_;
   const uint32_t* rep_;
   const TriangleHierarchy& h_;
+  const ExactTriangleTest intersect_;  // geometry::triangles_intersect, in its fastest form here
   bool record_ = false;
 };
 

@@ -1,0 +1,111 @@
+// The LBS guard's triangle test (lbs_guard.cpp check_exact): geometry::triangles_intersect,
+// the metric's own definition, and on a CPU with AVX the same test four separating axes at a
+// time: the same products, sums and comparisons in each lane, so the same verdict on every
+// input. exact_triangle_test() picks the form once.
+#pragma once
+
+#include "skelform/core/triangle_intersection.h"
+
+#include <glm/geometric.hpp>
+#include <glm/vec3.hpp>
+
+#if defined(__SSE2__) && (defined(__x86_64__) || defined(__i386__)) && (defined(__GNUC__) || defined(__clang__))
+#  define SKELFORM_EXACT_TRIANGLES_AVX 1
+#  include <immintrin.h>
+#endif
+
+namespace skelform::runtime {
+
+using ExactTriangleTest = bool (*)(const glm::dvec3&, const glm::dvec3&, const glm::dvec3&, const glm::dvec3&,
+                                   const glm::dvec3&, const glm::dvec3&);
+
+namespace detail {
+
+#if defined(SKELFORM_EXACT_TRIANGLES_AVX)
+// Four double 3-vectors, a component per register.
+struct DVec3x4 {
+  __m256d x, y, z;
+};
+
+__attribute__((target("avx"))) inline DVec3x4 gather_d4(const glm::dvec3& v0, const glm::dvec3& v1,
+                                                        const glm::dvec3& v2, const glm::dvec3& v3) {
+  return {_mm256_setr_pd(v0.x, v1.x, v2.x, v3.x), _mm256_setr_pd(v0.y, v1.y, v2.y, v3.y),
+          _mm256_setr_pd(v0.z, v1.z, v2.z, v3.z)};
+}
+
+// glm::cross lane by lane: (u.y w.z − w.y u.z, u.z w.x − w.z u.x, u.x w.y − w.x u.y).
+__attribute__((target("avx"))) inline DVec3x4 cross_d4(const DVec3x4& u, const DVec3x4& w) {
+  return {_mm256_sub_pd(_mm256_mul_pd(u.y, w.z), _mm256_mul_pd(w.y, u.z)),
+          _mm256_sub_pd(_mm256_mul_pd(u.z, w.x), _mm256_mul_pd(w.z, u.x)),
+          _mm256_sub_pd(_mm256_mul_pd(u.x, w.y), _mm256_mul_pd(w.x, u.y))};
+}
+
+// glm::dot(axis, p) lane by lane: (x·p.x + y·p.y) + z·p.z.
+__attribute__((target("avx"))) inline __m256d dot_d4(const DVec3x4& axis, const glm::dvec3& p) {
+  return _mm256_add_pd(
+      _mm256_add_pd(_mm256_mul_pd(axis.x, _mm256_set1_pd(p.x)), _mm256_mul_pd(axis.y, _mm256_set1_pd(p.y))),
+      _mm256_mul_pd(axis.z, _mm256_set1_pd(p.z)));
+}
+
+// The lanes whose axis separates the triangles (non-zero bits), as separated_along decides.
+// std::min({p0, p1, p2}) keeps the first smallest (p1 < r ? p1 : r, then p2), which is
+// _mm256_min_pd(p1, r); std::max keeps the first largest (r < p1 ? p1 : r), _mm256_max_pd(p1, r):
+// so a NaN lane selects what the scalar code selects.
+__attribute__((target("avx"))) inline int separating_lanes_d4(const DVec3x4& axis, const glm::dvec3* a,
+                                                              const glm::dvec3* b) {
+  const __m256d pa0 = dot_d4(axis, a[0]), pa1 = dot_d4(axis, a[1]), pa2 = dot_d4(axis, a[2]);
+  const __m256d pb0 = dot_d4(axis, b[0]), pb1 = dot_d4(axis, b[1]), pb2 = dot_d4(axis, b[2]);
+  const __m256d min_a = _mm256_min_pd(pa2, _mm256_min_pd(pa1, pa0));
+  const __m256d max_a = _mm256_max_pd(pa2, _mm256_max_pd(pa1, pa0));
+  const __m256d min_b = _mm256_min_pd(pb2, _mm256_min_pd(pb1, pb0));
+  const __m256d max_b = _mm256_max_pd(pb2, _mm256_max_pd(pb1, pb0));
+  const __m256d apart = _mm256_or_pd(_mm256_cmp_pd(max_a, min_b, _CMP_LT_OQ), _mm256_cmp_pd(max_b, min_a, _CMP_LT_OQ));
+  const __m256d length = _mm256_add_pd(_mm256_add_pd(_mm256_mul_pd(axis.x, axis.x), _mm256_mul_pd(axis.y, axis.y)),
+                                       _mm256_mul_pd(axis.z, axis.z));
+  return _mm256_movemask_pd(_mm256_and_pd(_mm256_cmp_pd(length, _mm256_setzero_pd(), _CMP_GT_OQ), apart));
+}
+
+// geometry::triangles_intersect with its 17 axes in four groups of four and one alone, in the
+// order it tries them (face normals and in-plane edge normals first: they separate the
+// near-coplanar neighbours a broad phase yields most). Any separating axis decides, so the
+// verdict does not depend on the grouping.
+__attribute__((target("avx"))) inline bool triangles_intersect_avx(const glm::dvec3& a0, const glm::dvec3& a1,
+                                                                   const glm::dvec3& a2, const glm::dvec3& b0,
+                                                                   const glm::dvec3& b1, const glm::dvec3& b2) {
+  const glm::dvec3 origin = a0;
+  const glm::dvec3 a[3] = {glm::dvec3(0.0), a1 - origin, a2 - origin};
+  const glm::dvec3 b[3] = {b0 - origin, b1 - origin, b2 - origin};
+  const glm::dvec3 ea[3] = {a[1] - a[0], a[2] - a[1], a[0] - a[2]};
+  const glm::dvec3 eb[3] = {b[1] - b[0], b[2] - b[1], b[0] - b[2]};
+  const glm::dvec3 na = glm::cross(ea[0], ea[1]), nb = glm::cross(eb[0], eb[1]);
+  // The face normals (computed again in their lanes, the same way) and two in-plane normals.
+  if (separating_lanes_d4(cross_d4(gather_d4(ea[0], eb[0], na, na), gather_d4(ea[1], eb[1], ea[0], ea[1])), a, b))
+    return false;
+  if (separating_lanes_d4(cross_d4(gather_d4(na, nb, nb, nb), gather_d4(ea[2], eb[0], eb[1], eb[2])), a, b))
+    return false;
+  if (separating_lanes_d4(cross_d4(gather_d4(ea[0], ea[0], ea[0], ea[1]), gather_d4(eb[0], eb[1], eb[2], eb[0])), a, b))
+    return false;
+  if (separating_lanes_d4(cross_d4(gather_d4(ea[1], ea[1], ea[2], ea[2]), gather_d4(eb[1], eb[2], eb[0], eb[1])), a, b))
+    return false;
+  return !geometry::detail::separated_along(glm::cross(ea[2], eb[2]), a, b);
+}
+#endif
+
+}  // namespace detail
+
+// The fastest form of geometry::triangles_intersect this CPU runs (checked once): all give
+// the same verdict.
+inline ExactTriangleTest exact_triangle_test() {
+#if defined(SKELFORM_EXACT_TRIANGLES_AVX)
+  static const ExactTriangleTest chosen = [] {
+    __builtin_cpu_init();
+    return __builtin_cpu_supports("avx") ? ExactTriangleTest(&detail::triangles_intersect_avx)
+                                         : ExactTriangleTest(&geometry::triangles_intersect);
+  }();
+  return chosen;
+#else
+  return &geometry::triangles_intersect;
+#endif
+}
+
+}  // namespace skelform::runtime
