@@ -20,7 +20,8 @@
 // smooth: around a corrected vertex λ rises back to 1 over kGuardRampRings rings (each at most
 // half-way from its neighbours' smallest to 1), and the lowered factors are checked again.
 //
-// The triangle test is geometry::triangles_intersect (double precision, the metric's own);
+// The triangle test is geometry::triangles_intersect (double precision, the metric's own; with
+// AVX, exact_triangles.h's form of it, which gives the same verdict);
 // the broad phase is the welded mesh's triangle hierarchy (triangle_bvh.h): the first round
 // meets it with itself, refitted to the boxes at x; later rounds query it with the triangles
 // whose corners moved, its node boxes grown around their new boxes.
