@@ -258,6 +258,33 @@ inline void grow_box(float* b, const float* box) {
   }
 }
 
+namespace detail {
+
+// The smallest (Lowest) or largest of p[0 .. count), count ≥ 1, as std::min or std::max over them
+// in order picks it: a NaN after p[0] is passed over, and a NaN p[0] is the result. With SSE2,
+// four lanes each start from p[0] and take _mm_min_ps(x, lane) (x < lane ? x : lane, what
+// std::min(lane, x) is), so a NaN is passed over or kept as there; of two equal values (0 and
+// −0) either may be kept, which no box comparison tells apart.
+template <bool Lowest>
+inline float plane_extreme(const float* p, uint32_t count) {
+#if defined(__SSE2__)
+  __m128 acc = _mm_set1_ps(p[0]);
+  auto take = [&](__m128 x) { acc = Lowest ? _mm_min_ps(x, acc) : _mm_max_ps(x, acc); };
+  uint32_t i = 1;
+  for (; i + 4 <= count; i += 4) take(_mm_loadu_ps(p + i));
+  for (; i < count; ++i) take(_mm_set1_ps(p[i]));
+  take(_mm_shuffle_ps(acc, acc, _MM_SHUFFLE(1, 0, 3, 2)));
+  take(_mm_shuffle_ps(acc, acc, _MM_SHUFFLE(2, 3, 0, 1)));
+  return _mm_cvtss_f32(acc);
+#else
+  float e = p[0];
+  for (uint32_t i = 1; i < count; ++i) e = Lowest ? std::min(e, p[i]) : std::max(e, p[i]);
+  return e;
+#endif
+}
+
+}  // namespace detail
+
 // Node boxes (6 floats per node: lo xyz, hi xyz) from the triangles' boxes, children before
 // parents; a leaf reads its slots' lanes, contiguous in each plane.
 inline void refit_triangle_hierarchy(const TriangleHierarchy& h, const SlotBoxes& boxes, float* node_boxes) {
@@ -266,15 +293,8 @@ inline void refit_triangle_hierarchy(const TriangleHierarchy& h, const SlotBoxes
     float* b = node_boxes + 6 * n;
     if (node.count > 0) {
       for (size_t k = 0; k < 3; ++k) {
-        const float* lo = boxes.planes.data() + k * boxes.stride + node.first;
-        const float* hi = boxes.planes.data() + (3 + k) * boxes.stride + node.first;
-        float l = lo[0], u = hi[0];
-        for (uint32_t i = 1; i < node.count; ++i) {
-          l = std::min(l, lo[i]);
-          u = std::max(u, hi[i]);
-        }
-        b[k] = l;
-        b[3 + k] = u;
+        b[k] = detail::plane_extreme<true>(boxes.planes.data() + k * boxes.stride + node.first, node.count);
+        b[3 + k] = detail::plane_extreme<false>(boxes.planes.data() + (3 + k) * boxes.stride + node.first, node.count);
       }
     } else {
       const float* c0 = node_boxes + 6 * size_t(node.first);

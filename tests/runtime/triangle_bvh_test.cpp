@@ -11,6 +11,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <limits>
 #include <map>
 #include <random>
 #include <set>
@@ -423,4 +424,41 @@ TEST_CASE("triangle hierarchy: every triangle in one leaf of 1 to kLeafTriangles
   std::vector<glm::vec3> far = rest;
   for (size_t v = 0; v < far.size(); v += 50) far[v] *= 1e30f;
   check_structure(far, tri);
+}
+
+TEST_CASE("triangle hierarchy: a leaf's refit takes the extremes std::min and std::max take in order") {
+  // plane_extreme against the loop it replaced, on every count a leaf can have: random values,
+  // a NaN first (the result is NaN), NaNs later (passed over), infinities, and signed zeros
+  // (either zero may be kept: equal as floats).
+  std::mt19937 random(20261128);
+  std::uniform_real_distribution<float> unit(-1.0f, 1.0f);
+  const float nan = std::numeric_limits<float>::quiet_NaN(), inf = std::numeric_limits<float>::infinity();
+  auto same = [](float a, float b) { return (std::isnan(a) && std::isnan(b)) || a == b; };
+  uint32_t compared = 0;
+  for (int kind = 0; kind < 5; ++kind)
+    for (uint32_t count = 1; count <= skelform::runtime::kLeafTriangles; ++count)
+      for (int trial = 0; trial < 50; ++trial) {
+        std::vector<float> p(count);
+        for (float& x : p) x = unit(random);
+        if (kind == 1) p[0] = nan;
+        if (kind == 2)
+          for (size_t i = 1; i < count; i += 3) p[i] = nan;
+        if (kind == 3) p[size_t(trial) % count] = trial % 2 ? inf : -inf;
+        if (kind == 4)
+          for (float& x : p) x = x < 0.0f ? -0.0f : 0.0f;
+        float lowest = p[0], highest = p[0];
+        for (uint32_t i = 1; i < count; ++i) {
+          lowest = std::min(lowest, p[i]);
+          highest = std::max(highest, p[i]);
+        }
+        const float got_lowest = skelform::runtime::detail::plane_extreme<true>(p.data(), count);
+        const float got_highest = skelform::runtime::detail::plane_extreme<false>(p.data(), count);
+        if (!same(got_lowest, lowest) || !same(got_highest, highest)) {
+          FAIL_CHECK("kind " << kind << ", count " << count << ": " << got_lowest << " / " << got_highest << " against "
+                             << lowest << " / " << highest);
+          return;
+        }
+        ++compared;
+      }
+  CHECK(compared == 5u * skelform::runtime::kLeafTriangles * 50u);
 }
