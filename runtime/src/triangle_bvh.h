@@ -431,10 +431,11 @@ inline void mark_wanted(const TriangleHierarchy& h, const uint8_t* wanted, uint8
 }
 
 // The leaf-pair kernel: for each of the `count_a` triangles in slots first_a.. (leaf A),
-// masks[i] gets bit j when lane j of the leaf at first_b (B, kLeafTriangles lanes; lanes past
-// B are not masked here) holds a triangle whose box meets triangle i's and that shares no
-// corner with it; masks[i] is 0 when triangle i's box misses B's node box. Returns the rows
-// whose mask is not 0 (bit i), so that the caller visits only those.
+// masks[i] gets bit j when lane j < count_b of the leaf at first_b (B) holds a triangle whose
+// box meets triangle i's and that shares no corner with it; masks[i] is 0 when triangle i's box
+// misses B's node box. Returns the rows whose mask is not 0 (bit i), so that the caller visits
+// only those. The SIMD kernels compare B's lanes a group at a time up to the group holding its
+// last (the slots after it are the next leaf's or padding: in bounds), then mask them off.
 struct LeafPairInput {
   const float* planes;      // SlotBoxes::planes
   size_t box_stride;        // SlotBoxes::stride
@@ -442,7 +443,7 @@ struct LeafPairInput {
   size_t corner_stride;     // TriangleHierarchy::slot_stride()
 };
 using LeafPairKernel = LeafLanes (*)(const LeafPairInput& in, uint32_t first_a, uint32_t count_a, uint32_t first_b,
-                                     const float* node_box_b, LeafLanes* masks);
+                                     uint32_t count_b, const float* node_box_b, LeafLanes* masks);
 
 inline bool box_meets_node(const LeafPairInput& in, uint32_t i, const float* node) {
   const float* p = in.planes + i;
@@ -453,8 +454,9 @@ inline bool box_meets_node(const LeafPairInput& in, uint32_t i, const float* nod
 
 #if defined(__SSE2__)
 inline LeafLanes leaf_pair_sse2(const LeafPairInput& in, uint32_t first_a, uint32_t count_a, uint32_t first_b,
-                                const float* node_box_b, LeafLanes* masks) {
+                                uint32_t count_b, const float* node_box_b, LeafLanes* masks) {
   LeafLanes hit = 0;
+  const LeafLanes lanes_b = (LeafLanes(1) << count_b) - 1;  // count_b ≤ kLeafTriangles < 64
   const size_t bs = in.box_stride, cs = in.corner_stride;
   const float* lo_x = in.planes + first_b;
   for (uint32_t i = 0; i < count_a; ++i) {
@@ -467,7 +469,7 @@ inline LeafLanes leaf_pair_sse2(const LeafPairInput& in, uint32_t first_a, uint3
     const __m128i c0 = _mm_set1_epi32(int32_t(in.corners[a])), c1 = _mm_set1_epi32(int32_t(in.corners[cs + a])),
                   c2 = _mm_set1_epi32(int32_t(in.corners[2 * cs + a]));
     LeafLanes mask = 0;
-    for (size_t g = 0; g < kLeafTriangles; g += 4) {
+    for (size_t g = 0; g < count_b; g += 4) {
       __m128 meet =
           _mm_and_ps(_mm_cmple_ps(lx, _mm_loadu_ps(lo_x + 3 * bs + g)), _mm_cmple_ps(_mm_loadu_ps(lo_x + g), hx));
       meet = _mm_and_ps(meet, _mm_cmple_ps(ly, _mm_loadu_ps(lo_x + 4 * bs + g)));
@@ -483,8 +485,8 @@ inline LeafLanes leaf_pair_sse2(const LeafPairInput& in, uint32_t first_a, uint3
       }
       mask |= LeafLanes(_mm_movemask_ps(_mm_andnot_ps(_mm_castsi128_ps(shared), meet))) << g;
     }
-    masks[i] = mask;
-    hit |= LeafLanes(mask != 0) << i;
+    masks[i] = mask & lanes_b;
+    hit |= LeafLanes(masks[i] != 0) << i;
   }
   return hit;
 }
@@ -492,9 +494,10 @@ inline LeafLanes leaf_pair_sse2(const LeafPairInput& in, uint32_t first_a, uint3
 
 #if defined(SKELFORM_HIERARCHY_AVX2)
 __attribute__((target("avx2"))) inline LeafLanes leaf_pair_avx2(const LeafPairInput& in, uint32_t first_a,
-                                                                uint32_t count_a, uint32_t first_b,
+                                                                uint32_t count_a, uint32_t first_b, uint32_t count_b,
                                                                 const float* node_box_b, LeafLanes* masks) {
   const size_t bs = in.box_stride, cs = in.corner_stride;
+  const LeafLanes lanes_b = (LeafLanes(1) << count_b) - 1;
   const float* lo_x = in.planes + first_b;
   // The rows whose box meets B's node box, eight at a time (the slots after A's last are the
   // next leaf's or padding: in bounds, and masked off).
@@ -528,7 +531,7 @@ __attribute__((target("avx2"))) inline LeafLanes leaf_pair_avx2(const LeafPairIn
     const __m256i c0 = _mm256_set1_epi32(int32_t(in.corners[a])), c1 = _mm256_set1_epi32(int32_t(in.corners[cs + a])),
                   c2 = _mm256_set1_epi32(int32_t(in.corners[2 * cs + a]));
     LeafLanes mask = 0;
-    for (size_t g = 0; g < kLeafTriangles; g += 8) {
+    for (size_t g = 0; g < count_b; g += 8) {
       __m256 meet = _mm256_and_ps(_mm256_cmp_ps(lx, _mm256_loadu_ps(lo_x + 3 * bs + g), _CMP_LE_OQ),
                                   _mm256_cmp_ps(_mm256_loadu_ps(lo_x + g), hx, _CMP_LE_OQ));
       meet = _mm256_and_ps(meet, _mm256_cmp_ps(ly, _mm256_loadu_ps(lo_x + 4 * bs + g), _CMP_LE_OQ));
@@ -545,15 +548,15 @@ __attribute__((target("avx2"))) inline LeafLanes leaf_pair_avx2(const LeafPairIn
       }
       mask |= LeafLanes(_mm256_movemask_ps(_mm256_andnot_ps(_mm256_castsi256_ps(shared), meet))) << g;
     }
-    masks[i] = mask;
-    hit |= LeafLanes(mask != 0) << i;
+    masks[i] = mask & lanes_b;
+    hit |= LeafLanes(masks[i] != 0) << i;
   }
   return hit;
 }
 #endif
 
 inline LeafLanes leaf_pair_portable(const LeafPairInput& in, uint32_t first_a, uint32_t count_a, uint32_t first_b,
-                                    const float* node_box_b, LeafLanes* masks) {
+                                    uint32_t count_b, const float* node_box_b, LeafLanes* masks) {
   LeafLanes hit = 0;
   const size_t bs = in.box_stride, cs = in.corner_stride;
   const float* p = in.planes;
@@ -561,7 +564,7 @@ inline LeafLanes leaf_pair_portable(const LeafPairInput& in, uint32_t first_a, u
     const uint32_t a = first_a + i;
     masks[i] = 0;
     if (!box_meets_node(in, a, node_box_b)) continue;
-    for (uint32_t g = 0; g < kLeafTriangles; ++g) {
+    for (uint32_t g = 0; g < count_b; ++g) {
       const size_t b = first_b + g;
       const bool meet = p[a] <= p[3 * bs + b] && p[b] <= p[3 * bs + a] && p[bs + a] <= p[4 * bs + b] &&
                         p[bs + b] <= p[4 * bs + a] && p[2 * bs + a] <= p[5 * bs + b] && p[2 * bs + b] <= p[5 * bs + a];
@@ -738,7 +741,7 @@ bool self_pairs_triangle_hierarchy(const TriangleHierarchy& h, const float* node
     const HierarchyNode na = h.nodes[a], nb = h.nodes[b];
     LeafLanes hit = a == b ? self_kernel(input, na.first, na.count, node_boxes + 6 * size_t(a),
                                          h.shared_in_leaf.data() + na.first, masks)
-                           : kernel(input, na.first, na.count, nb.first, node_boxes + 6 * size_t(b), masks);
+                           : kernel(input, na.first, na.count, nb.first, nb.count, node_boxes + 6 * size_t(b), masks);
     while (hit) {
       const uint32_t i = uint32_t(__builtin_ctzll(hit));
       hit &= hit - 1;

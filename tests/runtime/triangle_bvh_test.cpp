@@ -218,13 +218,15 @@ TEST_CASE("triangle hierarchy: every leaf-pair and leaf-self kernel gives the po
     for (uint32_t b = 0; b < h.nodes.size(); ++b) {
       if (h.nodes[b].count == 0) continue;
       skelform::runtime::LeafLanes expected[skelform::runtime::kLeafTriangles], got[skelform::runtime::kLeafTriangles];
-      const skelform::runtime::LeafLanes expected_hit = detail::leaf_pair_portable(
-          input, h.nodes[a].first, h.nodes[a].count, h.nodes[b].first, node_boxes.data() + 6 * size_t(b), expected);
+      const skelform::runtime::LeafLanes expected_hit =
+          detail::leaf_pair_portable(input, h.nodes[a].first, h.nodes[a].count, h.nodes[b].first, h.nodes[b].count,
+                                     node_boxes.data() + 6 * size_t(b), expected);
       for (uint32_t i = 0; i < h.nodes[a].count; ++i)
         hit_mismatches += ((expected_hit >> i) & 1) != (expected[i] != 0 ? 1u : 0u) ? 1 : 0;
       for (const auto& kernel : kernels) {
-        const skelform::runtime::LeafLanes hit = kernel.second(
-            input, h.nodes[a].first, h.nodes[a].count, h.nodes[b].first, node_boxes.data() + 6 * size_t(b), got);
+        const skelform::runtime::LeafLanes hit =
+            kernel.second(input, h.nodes[a].first, h.nodes[a].count, h.nodes[b].first, h.nodes[b].count,
+                          node_boxes.data() + 6 * size_t(b), got);
         for (uint32_t i = 0; i < h.nodes[a].count; ++i) mismatches[kernel.first] += got[i] != expected[i] ? 1 : 0;
         mismatches[kernel.first] += hit != expected_hit ? 1 : 0;
       }
