@@ -124,7 +124,7 @@ void find_rest_pairs(const glm::vec3* rest_positions, const AllocatorRef& alloca
   Array<LeafLanes> leaf_wanted{CallbackAllocator<LeafLanes>(allocator)};
   SlotBoxes boxes(allocator);
   node_boxes.resize(6 * mesh.hierarchy.nodes.size());
-  wanted.assign(mesh.triangle_count, 1);
+  wanted.assign(mesh.hierarchy.slot_stride(), 1);  // by slot
   node_wanted.resize(mesh.hierarchy.nodes.size());
   leaf_wanted.resize(mesh.hierarchy.nodes.size());
   boxes.resize(mesh.hierarchy);

@@ -43,6 +43,7 @@ GuardWorkspace make_guard_workspace(const ContactMesh& mesh, const AllocatorRef&
   ws.corrected_list.reserve(mesh.vertex_count);
   ws.lowered_list.reserve(mesh.vertex_count);
   ws.tested.resize(triangles);
+  ws.wanted.resize(mesh.hierarchy.slot_stride());
   ws.test_list.reserve(triangles);
   ws.boxes.resize(mesh.hierarchy);
   ws.node_boxes.resize(6 * mesh.hierarchy.nodes.size());
@@ -102,6 +103,7 @@ class GuardPass {
         ws_.boxes.set(h_.slot[t], box);
         if (ws_.moved[c[0]] || ws_.moved[c[1]] || ws_.moved[c[2]]) {
           ws_.tested[t] = 1;
+          ws_.wanted[h_.slot[t]] = 1;
           ws_.test_list.push_back(t);
         }
       }
@@ -127,6 +129,7 @@ class GuardPass {
       ws_.boxes.set(i, box);
       const bool moved = ws_.moved[c[0]] || ws_.moved[c[1]] || ws_.moved[c[2]];
       ws_.tested[t] = moved;
+      ws_.wanted[i] = moved;
       if (moved) ws_.test_list.push_back(t);
     }
     return true;
@@ -140,7 +143,7 @@ class GuardPass {
   bool search(uint32_t round, bool& added) {
     added = false;
     if (round == 0)
-      return self_pairs_triangle_hierarchy(h_, ws_.node_boxes.data(), ws_.boxes, ws_.tested.data(),
+      return self_pairs_triangle_hierarchy(h_, ws_.node_boxes.data(), ws_.boxes, ws_.wanted.data(),
                                            ws_.node_flags.data(), ws_.leaf_flags.data(), [&](uint32_t t, uint32_t s) {
                                              if (!spend()) return false;
                                              check_exact(t, s, added);
@@ -341,7 +344,7 @@ void guard_intersections(const Deformable& d, const ContactMesh& mesh, const Den
     bool added = false;
     bool complete = pass.search(round, added);
     pass.stop_recording();
-    for (uint32_t t : ws.test_list) ws.tested[t] = 0;
+    for (uint32_t t : ws.test_list) ws.tested[t] = 0, ws.wanted[mesh.hierarchy.slot[t]] = 0;
     ws.test_list.clear();
     if (complete && round == 0 && hook && ws.pairs_complete && !ws.pair_keys.empty()) {
       const Array<uint32_t>& moved = hook->after_first_search(

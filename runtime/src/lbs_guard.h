@@ -81,6 +81,7 @@ struct GuardWorkspace {
         corrected_list(a),
         lowered_list(a),
         tested(a),
+        wanted(a),
         test_list(a),
         boxes(a),
         node_boxes(a),
@@ -103,6 +104,7 @@ struct GuardWorkspace {
   Array<uint32_t> corrected_list;  // the vertices whose λ the intersection guard lowered from 1
   Array<uint32_t> lowered_list;    // the vertices whose λ the ramp lowered
   Array<uint8_t> tested;           // per triangle: in this round's list
+  Array<uint8_t> wanted;           // per hierarchy slot (slot_stride()): tested, for the first round
   Array<uint32_t> test_list;       // the triangles this round tests
   // Per triangle (by hierarchy slot): its box at x. The contact pass (FirstRoundHook) grows
   // those around the vertices it moves; the guard sets them again there (search_after_moves).

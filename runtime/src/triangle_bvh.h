@@ -413,6 +413,25 @@ bool query_triangle_hierarchy(const TriangleHierarchy& h, const float* node_boxe
 
 namespace detail {
 
+// The lanes of the leaf of `count` slots at `wanted` whose flag is not 0. With SSE2 it reads
+// kLeafTriangles flags (the slots after the leaf are the next leaf's or padding: in bounds).
+inline LeafLanes wanted_lanes(const uint8_t* wanted, uint32_t count) {
+  static_assert(kLeafTriangles == 32, "two loads of sixteen flags");
+  const LeafLanes lanes = (LeafLanes(1) << count) - 1;
+#if defined(__SSE2__)
+  const __m128i zero = _mm_setzero_si128();
+  const uint32_t low =
+      uint32_t(_mm_movemask_epi8(_mm_cmpeq_epi8(_mm_loadu_si128(reinterpret_cast<const __m128i*>(wanted)), zero)));
+  const uint32_t high =
+      uint32_t(_mm_movemask_epi8(_mm_cmpeq_epi8(_mm_loadu_si128(reinterpret_cast<const __m128i*>(wanted + 16)), zero)));
+  return ~(LeafLanes(low) | LeafLanes(high) << 16) & lanes;
+#else
+  LeafLanes found = 0;
+  for (uint32_t i = 0; i < count; ++i) found |= LeafLanes(wanted[i] ? 1 : 0) << i;
+  return found & lanes;
+#endif
+}
+
 // Per node, whether it holds a wanted triangle (children before parents: nodes are stored
 // parents first), and per leaf its wanted lanes.
 inline void mark_wanted(const TriangleHierarchy& h, const uint8_t* wanted, uint8_t* node_wanted,
@@ -421,7 +440,7 @@ inline void mark_wanted(const TriangleHierarchy& h, const uint8_t* wanted, uint8
     const HierarchyNode node = h.nodes[n];
     LeafLanes lanes = 0;
     if (node.count > 0) {
-      for (uint32_t i = 0; i < node.count; ++i) lanes |= LeafLanes(wanted[h.order[node.first + i]] ? 1 : 0) << i;
+      lanes = wanted_lanes(wanted + node.first, node.count);
       node_wanted[n] = lanes ? 1 : 0;
     } else {
       node_wanted[n] = node_wanted[node.first] | node_wanted[node.first + 1];
@@ -718,10 +737,11 @@ inline LeafSelfKernel leaf_self_kernel() {  // as leaf_pair_kernel()
 }  // namespace detail
 
 // Calls visit(s, t) once for every unordered pair of distinct triangles that share no corner
-// and whose boxes (`boxes`, by slot) meet, at least one of them marked in `wanted` (per
-// triangle, non-zero), by a simultaneous descent of the hierarchy against itself: node pairs
-// whose boxes (`node_boxes`) miss each other, or that hold no wanted triangle, are pruned as
-// wholes (`node_wanted` per node and `leaf_wanted`, a leaf's wanted lanes, are filled here);
+// and whose boxes (`boxes`, by slot) meet, at least one of them marked in `wanted` (by slot,
+// non-zero; slot_stride() flags, read a leaf's kLeafTriangles at a time), by a simultaneous
+// descent of the hierarchy against itself: node pairs whose boxes (`node_boxes`) miss each
+// other, or that hold no wanted triangle, are pruned as wholes (`node_wanted` per node and
+// `leaf_wanted`, a leaf's wanted lanes, are filled here);
 // at two leaves, a triangle meets all lanes of the other leaf at once. A visitor that returns
 // bool stops the search by returning false (a work budget); the call then returns false.
 template <class Visit>

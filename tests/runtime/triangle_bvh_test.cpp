@@ -74,12 +74,14 @@ struct Searchable {
     node_boxes.resize(6 * h.nodes.size());
     refit_triangle_hierarchy(h, slot_boxes, node_boxes.data());
   }
-  // The self-pair search with `wanted`.
+  // The self-pair search with `wanted` (by triangle; the search takes them by slot, with
+  // padding flags set, which must not count).
   template <class Visit>
   bool self_pairs(const std::vector<uint8_t>& wanted, Visit&& visit) {
-    std::vector<uint8_t> node_wanted(h.nodes.size());
+    std::vector<uint8_t> by_slot(h.slot_stride(), 1), node_wanted(h.nodes.size());
+    for (uint32_t t = 0; t < n; ++t) by_slot[h.slot[t]] = wanted[t];
     std::vector<skelform::runtime::LeafLanes> leaf_wanted(h.nodes.size());
-    return self_pairs_triangle_hierarchy(h, node_boxes.data(), slot_boxes, wanted.data(), node_wanted.data(),
+    return self_pairs_triangle_hierarchy(h, node_boxes.data(), slot_boxes, by_slot.data(), node_wanted.data(),
                                          leaf_wanted.data(), visit);
   }
   uint32_t n;
@@ -463,4 +465,29 @@ TEST_CASE("triangle hierarchy: a leaf's refit takes the extremes std::min and st
         ++compared;
       }
   CHECK(compared == 5u * skelform::runtime::kLeafTriangles * 50u);
+}
+
+TEST_CASE("triangle hierarchy: a leaf's wanted lanes are its own slots' flags") {
+  // wanted_lanes reads a leaf's flags a group at a time past its count (the next leaf's, or the
+  // padding's): those must not count, or a leaf with none wanted would not be pruned.
+  std::vector<glm::vec3> rest, now;
+  std::vector<uint32_t> tri;
+  grid(23, 1.3f, rest, now, tri);
+  const Searchable scene(rest, now, tri);
+  const auto& h = scene.h;
+  std::mt19937 random(7);
+  std::vector<uint8_t> by_slot(h.slot_stride(), 1);
+  for (uint32_t i = 0; i < h.order.size(); ++i) by_slot[i] = random() % 4 == 0 ? uint8_t(1 + random() % 255) : 0;
+  size_t leaves = 0, part_full = 0;
+  for (const auto& node : h.nodes) {
+    if (node.count == 0) continue;
+    skelform::runtime::LeafLanes expected = 0;
+    for (uint32_t i = 0; i < node.count; ++i)
+      expected |= skelform::runtime::LeafLanes(by_slot[node.first + i] != 0) << i;
+    CHECK(skelform::runtime::detail::wanted_lanes(by_slot.data() + node.first, node.count) == expected);
+    ++leaves;
+    part_full += node.count < skelform::runtime::kLeafTriangles ? 1 : 0;
+  }
+  CHECK(part_full > 0);  // some leaves have lanes past their count to ignore
+  CHECK(leaves > 10);
 }
