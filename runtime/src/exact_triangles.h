@@ -1,7 +1,8 @@
 // The LBS guard's triangle test (lbs_guard.cpp check_exact): geometry::triangles_intersect,
 // the metric's own definition, and on a CPU with AVX the same test four separating axes at a
 // time: the same products, sums and comparisons in each lane, so the same verdict on every
-// input. exact_triangle_test() picks the form once.
+// input. exact_triangle_test() picks the form once. Only where double is evaluated in double:
+// x87 arithmetic (a 32-bit build's default) keeps excess precision in the scalar reference.
 #pragma once
 
 #include "skelform/core/triangle_intersection.h"
@@ -9,7 +10,8 @@
 #include <glm/geometric.hpp>
 #include <glm/vec3.hpp>
 
-#if defined(__SSE2__) && (defined(__x86_64__) || defined(__i386__)) && (defined(__GNUC__) || defined(__clang__))
+#if defined(__SSE2__) && (defined(__x86_64__) || defined(__i386__)) && (defined(__GNUC__) || defined(__clang__)) && \
+    defined(__FLT_EVAL_METHOD__) && __FLT_EVAL_METHOD__ == 0
 #  define SKELFORM_EXACT_TRIANGLES_AVX 1
 #  include <immintrin.h>
 #endif

@@ -2,7 +2,8 @@
 // separating axes. Two forms that give the same verdict on every input, bit for bit:
 // triangles_meet_portable, one axis at a time, and triangles_meet_sse2, four axes at a time
 // with the same products, sums and comparisons in each lane. triangles_meet picks the SSE2 form
-// where the target has it (x86-64's baseline).
+// where the target has it (x86-64's baseline) and evaluates float in float: x87 arithmetic (a
+// 32-bit build's default) keeps excess precision in the scalar code, which the lanes do not.
 #pragma once
 
 #include <glm/geometric.hpp>
@@ -10,7 +11,8 @@
 
 #include <algorithm>
 
-#if defined(__SSE2__)
+#if defined(__SSE2__) && defined(__FLT_EVAL_METHOD__) && __FLT_EVAL_METHOD__ == 0
+#  define SKELFORM_TRIANGLES_MEET_SSE2 1
 #  include <emmintrin.h>
 #endif
 
@@ -69,7 +71,7 @@ inline bool triangles_meet_portable(const glm::vec3& p0, const glm::vec3& p1, co
   return true;
 }
 
-#if defined(__SSE2__)
+#if defined(SKELFORM_TRIANGLES_MEET_SSE2)
 // Four 3-vectors, a component per register.
 struct Vec3x4 {
   __m128 x, y, z;
@@ -135,7 +137,7 @@ inline bool triangles_meet_sse2(const glm::vec3& p0, const glm::vec3& p1, const 
 // Do the triangles (p0, p1, p2) and (q0, q1, q2) intersect (touching counts)?
 inline bool triangles_meet(const glm::vec3& p0, const glm::vec3& p1, const glm::vec3& p2, const glm::vec3& q0,
                            const glm::vec3& q1, const glm::vec3& q2) {
-#if defined(__SSE2__)
+#if defined(SKELFORM_TRIANGLES_MEET_SSE2)
   return detail::triangles_meet_sse2(p0, p1, p2, q0, q1, q2);
 #else
   return detail::triangles_meet_portable(p0, p1, p2, q0, q1, q2);

@@ -1,12 +1,13 @@
 // The contact pass's triangle test (runtime/src/triangles_meet.h): the verdicts of known
-// configurations, and the SSE2 form against the portable one on random, degenerate and
-// non-finite triangles: the same verdict on every input.
+// configurations, and the SSE2 form against the portable one on random, degenerate,
+// mixed-scale and non-finite triangles: the same verdict on every input.
 #include "triangles_meet.h"
 
 #include <doctest/doctest.h>
 #include <glm/vec3.hpp>
 
 #include <array>
+#include <cmath>
 #include <cstdint>
 #include <limits>
 #include <random>
@@ -25,7 +26,7 @@ bool meet_portable(const Triangle& p, const Triangle& q) {
 // Every form this build has, and the dispatching one, agree; returns their verdict.
 bool meet_all(const Triangle& p, const Triangle& q) {
   const bool portable = meet_portable(p, q);
-#if defined(__SSE2__)
+#if defined(SKELFORM_TRIANGLES_MEET_SSE2)
   CHECK(skelform::runtime::detail::triangles_meet_sse2(p[0], p[1], p[2], q[0], q[1], q[2]) == portable);
 #endif
   CHECK(triangles_meet(p[0], p[1], p[2], q[0], q[1], q[2]) == portable);
@@ -58,10 +59,10 @@ TEST_CASE("triangles_meet: the SSE2 form gives the portable verdict on every inp
   std::mt19937 random(20261128);
   std::uniform_real_distribution<float> unit(-1.0f, 1.0f);
   std::uniform_int_distribution<int> small(-2, 2);
-  std::uniform_int_distribution<int> pick(0, 17);
+  std::uniform_int_distribution<int> pick(0, 17), exponent(-70, 70), how_many(1, 3);
   const float inf = std::numeric_limits<float>::infinity(), nan = std::numeric_limits<float>::quiet_NaN();
   uint32_t met = 0, apart = 0, cases = 0;
-  for (int kind = 0; kind < 6; ++kind)
+  for (int kind = 0; kind < 7; ++kind)
     for (int i = 0; i < 40000; ++i) {
       Triangle p, q;
       for (glm::vec3* v : {&p[0], &p[1], &p[2], &q[0], &q[1], &q[2]}) {
@@ -81,18 +82,23 @@ TEST_CASE("triangles_meet: the SSE2 form gives the portable verdict on every inp
           case 4:  // tiny: the products underflow
             *v = 1e-20f * glm::vec3(unit(random), unit(random), unit(random));
             break;
-          default:  // on the lattice, with a non-finite coordinate now and then
+          case 5:  // on the lattice, with non-finite coordinates
             *v = glm::vec3(float(small(random)), float(small(random)), float(small(random)));
+            break;
+          default:  // every coordinate at its own scale
+            *v = glm::vec3(std::ldexp(unit(random), exponent(random)), std::ldexp(unit(random), exponent(random)),
+                           std::ldexp(unit(random), exponent(random)));
             break;
         }
       }
-      if (kind == 5) {
-        const int slot = pick(random);
-        float& c = (slot < 9 ? p[size_t(slot / 3)] : q[size_t(slot / 3 - 3)])[slot % 3];
-        c = slot % 2 ? inf : (slot % 3 ? -inf : nan);
-      }
+      if (kind == 5)
+        for (int k = how_many(random); k > 0; --k) {
+          const int slot = pick(random);
+          float& c = (slot < 9 ? p[size_t(slot / 3)] : q[size_t(slot / 3 - 3)])[slot % 3];
+          c = slot % 2 ? inf : (slot % 3 ? -inf : nan);
+        }
       const bool portable = meet_portable(p, q);
-#if defined(__SSE2__)
+#if defined(SKELFORM_TRIANGLES_MEET_SSE2)
       const bool sse2 = skelform::runtime::detail::triangles_meet_sse2(p[0], p[1], p[2], q[0], q[1], q[2]);
       if (sse2 != portable) {
         FAIL_CHECK("kind " << kind << " case " << i << ": SSE2 " << sse2 << ", portable " << portable);
@@ -102,7 +108,7 @@ TEST_CASE("triangles_meet: the SSE2 form gives the portable verdict on every inp
       ++cases;
       (portable ? met : apart) += 1;
     }
-  CHECK(cases == 240000u);
+  CHECK(cases == 280000u);
   // Both verdicts are well represented, so agreement is not one constant answer.
   CHECK(met > 20000u);
   CHECK(apart > 20000u);
