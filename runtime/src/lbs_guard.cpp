@@ -11,6 +11,10 @@
 #include <algorithm>
 #include <cmath>
 
+#if defined(__SSE2__)
+#  include <emmintrin.h>
+#endif
+
 namespace skelform::runtime {
 
 namespace {
@@ -121,18 +125,47 @@ class GuardPass {
     }
     if (!finite) return false;
     const size_t stride = h_.slot_stride();
-    for (uint32_t i = 0; i < mesh_.triangle_count; ++i) {
-      const uint32_t t = h_.order[i];
-      const uint32_t c[3] = {h_.corners[i], h_.corners[stride + i], h_.corners[2 * stride + i]};  // slot order
+    const uint32_t* corners = h_.corners.data();  // slot order
+    uint32_t i = 0;
+#if defined(__SSE2__)
+    // Four slots' boxes at a time, stored as lanes of the box planes: triangle_box's glm::min
+    // (y < x ? y : x) and glm::max (x < y ? y : x) are _mm_min_ps(y, x) and _mm_max_ps(y, x).
+    const glm::vec3* x = ws_.positions.data();
+    float* planes = ws_.boxes.planes.data();
+    for (; i + 4 <= mesh_.triangle_count; i += 4) {
+      __m128 lo[3], hi[3];
+      for (size_t k = 0; k < 3; ++k) {
+        const uint32_t* c = corners + k * stride + i;
+        for (int axis = 0; axis < 3; ++axis) {
+          const __m128 p = _mm_setr_ps(x[c[0]][axis], x[c[1]][axis], x[c[2]][axis], x[c[3]][axis]);
+          lo[axis] = k == 0 ? p : _mm_min_ps(p, lo[axis]);
+          hi[axis] = k == 0 ? p : _mm_max_ps(p, hi[axis]);
+        }
+      }
+      for (size_t axis = 0; axis < 3; ++axis) {
+        _mm_storeu_ps(planes + axis * ws_.boxes.stride + i, lo[axis]);
+        _mm_storeu_ps(planes + (3 + axis) * ws_.boxes.stride + i, hi[axis]);
+      }
+      for (uint32_t j = i; j < i + 4; ++j) seed_moved(j, corners[j], corners[stride + j], corners[2 * stride + j]);
+    }
+#endif
+    for (; i < mesh_.triangle_count; ++i) {
+      const uint32_t c[3] = {corners[i], corners[stride + i], corners[2 * stride + i]};
       float box[6];
       triangle_box(ws_.positions[c[0]], ws_.positions[c[1]], ws_.positions[c[2]], box);
       ws_.boxes.set(i, box);
-      const bool moved = ws_.moved[c[0]] || ws_.moved[c[1]] || ws_.moved[c[2]];
-      ws_.tested[t] = moved;
-      ws_.wanted[i] = moved;
-      if (moved) ws_.test_list.push_back(t);
+      seed_moved(i, c[0], c[1], c[2]);
     }
     return true;
+  }
+
+  // The triangle in `slot`, corners c0, c1, c2, is listed (tested, wanted) when one moved.
+  void seed_moved(uint32_t slot, uint32_t c0, uint32_t c1, uint32_t c2) {
+    const uint32_t t = h_.order[slot];
+    const bool moved = ws_.moved[c0] || ws_.moved[c1] || ws_.moved[c2];
+    ws_.tested[t] = moved;
+    ws_.wanted[slot] = moved;
+    if (moved) ws_.test_list.push_back(t);
   }
 
   // Round `round`'s search over ws.test_list: flags the corners of every pair LBS lacks (of its
