@@ -754,10 +754,11 @@ bool self_pairs_triangle_hierarchy(const TriangleHierarchy& h, const float* node
   const detail::LeafPairKernel kernel = detail::leaf_pair_kernel();
   const detail::LeafSelfKernel self_kernel = detail::leaf_self_kernel();
   LeafLanes masks[kLeafTriangles];
-  // Leaf a's triangles against the lanes of leaf b: lane j of triangle i's row when bit j of
-  // allowed(i) is set (a leaf against itself: of the lanes after i). False when the visitor
-  // stopped.
-  auto leaves = [&](uint32_t a, uint32_t b, auto&& allowed) {
+  // Leaf a's triangles against the lanes of leaf b (a leaf against itself: the lanes after each
+  // row, as the self kernel gives them): all the kernel's lanes of a wanted row, the wanted ones
+  // of another. False when the visitor stopped.
+  auto leaves = [&](uint32_t a, uint32_t b) {
+    const LeafLanes want_a = leaf_wanted[a], want_b = leaf_wanted[b];
     const HierarchyNode na = h.nodes[a], nb = h.nodes[b];
     LeafLanes hit = a == b ? self_kernel(input, na.first, na.count, node_boxes + 6 * size_t(a),
                                          h.shared_in_leaf.data() + na.first, masks)
@@ -765,7 +766,7 @@ bool self_pairs_triangle_hierarchy(const TriangleHierarchy& h, const float* node
     while (hit) {
       const uint32_t i = uint32_t(__builtin_ctzll(hit));
       hit &= hit - 1;
-      LeafLanes mask = masks[i] & allowed(i);
+      LeafLanes mask = (want_a >> i) & 1 ? masks[i] : masks[i] & want_b;
       const uint32_t s = h.order[na.first + i];
       while (mask) {
         const uint32_t j = uint32_t(__builtin_ctzll(mask));
@@ -788,12 +789,7 @@ bool self_pairs_triangle_hierarchy(const TriangleHierarchy& h, const float* node
     const HierarchyNode na = h.nodes[p.a], nb = h.nodes[p.b];
     if (p.a == p.b) {
       if (na.count > 0) {
-        const LeafLanes lanes = (LeafLanes(1) << na.count) - 1, want = leaf_wanted[p.a];
-        const bool goes_on = leaves(p.a, p.a, [&](uint32_t i) {
-          const LeafLanes later = lanes & ~((LeafLanes(2) << i) - 1);  // the lanes after i: each pair once
-          return (want >> i) & 1 ? later : later & want;
-        });
-        if (!goes_on) return false;
+        if (!leaves(p.a, p.a)) return false;
       } else {
         stack[top++] = {na.first, na.first + 1};
         stack[top++] = {na.first + 1, na.first + 1};
@@ -803,8 +799,7 @@ bool self_pairs_triangle_hierarchy(const TriangleHierarchy& h, const float* node
     }
     if (!hierarchy_boxes_meet(node_boxes + 6 * size_t(p.a), node_boxes + 6 * size_t(p.b))) continue;
     if (na.count > 0 && nb.count > 0) {
-      const LeafLanes lanes = (LeafLanes(1) << nb.count) - 1, want_a = leaf_wanted[p.a], want_b = leaf_wanted[p.b];
-      if (!leaves(p.a, p.b, [&](uint32_t i) { return (want_a >> i) & 1 ? lanes : lanes & want_b; })) return false;
+      if (!leaves(p.a, p.b)) return false;
       continue;
     }
     // Descend the inner node; when both are, the one with the larger box.
