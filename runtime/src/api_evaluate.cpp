@@ -228,7 +228,7 @@ void evaluate_skelform(sf_instance& instance, const sf_eval_options& options, bo
     ContactHook contacts(d.welded, scale, result.positions, d.vertex_count, instance.contact,
                          {lbs.positions, d.skelform_weight.data()});
     guard_and_blend(d, d.welded, scale, result, lbs, with_normals, result, instance.guard,
-                    instance.contacts_enabled ? &contacts : nullptr);
+                    instance.contacts_enabled ? &contacts : nullptr, instance.joints.affine.data());
   }
 }
 

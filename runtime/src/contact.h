@@ -14,6 +14,7 @@
 #pragma once
 
 #include "memory.h"
+#include "rest_clearance.h"
 #include "triangle_bvh.h"
 
 #include <glm/vec3.hpp>
@@ -27,7 +28,14 @@ namespace skelform::runtime {
 // (sf_instance_set_contacts).
 struct ContactMesh {
   explicit ContactMesh(const AllocatorRef& a)
-      : weld(a), representative(a), triangles(a), incident_offsets(a), incident(a), hierarchy(a), rest_pairs(a) {}
+      : weld(a),
+        representative(a),
+        triangles(a),
+        incident_offsets(a),
+        incident(a),
+        hierarchy(a),
+        clearance(a),
+        rest_pairs(a) {}
   uint32_t vertex_count = 0;         // welded vertices
   uint32_t triangle_count = 0;       // welded triangles without a repeated corner
   Array<uint32_t> weld;              // per dense vertex: its welded vertex (same rest position, bit for bit)
@@ -43,6 +51,8 @@ struct ContactMesh {
   double rest_volume = 0.0;
   // The triangles' hierarchy over the rest pose (triangle_bvh.h), for the LBS guard.
   TriangleHierarchy hierarchy;
+  // Its leaves' rest clearances (rest_clearance.h), for the LBS guard's first round.
+  RestClearance clearance;
   // The pairs that intersect as modelled (pair_key, ascending): parts a modeller embedded in
   // each other. The contact pass and the LBS guard leave them be.
   Array<uint64_t> rest_pairs;

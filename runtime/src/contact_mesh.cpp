@@ -118,6 +118,7 @@ void find_rest_pairs(const glm::vec3* rest_positions, const AllocatorRef& alloca
   welded_rest.resize(mesh.vertex_count);
   for (uint32_t v = 0; v < mesh.vertex_count; ++v) welded_rest[v] = rest_positions[mesh.representative[v]];
   mesh.hierarchy = build_triangle_hierarchy(welded_rest.data(), mesh.triangles.data(), mesh.triangle_count, allocator);
+  mesh.clearance = build_rest_clearance(mesh.hierarchy, welded_rest.data(), mesh.triangles.data(), allocator);
   // The pairs that intersect at rest, by the exact test, through the hierarchy.
   Array<float> node_boxes{CallbackAllocator<float>(allocator)};
   Array<uint8_t> wanted{CallbackAllocator<uint8_t>(allocator)}, node_wanted{CallbackAllocator<uint8_t>(allocator)};

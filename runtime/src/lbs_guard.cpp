@@ -56,6 +56,7 @@ GuardWorkspace make_guard_workspace(const ContactMesh& mesh, const AllocatorRef&
   ws.pair_keys.reserve(size_t(kGuardPairsPerTriangle) * triangles);
   ws.pair_added.reserve(size_t(kGuardPairsPerTriangle) * triangles);
   ws.gradient.resize(mesh.vertex_count);
+  ws.clearance_maps.resize(mesh.clearance.empty() ? 0 : mesh.hierarchy.nodes.size());
   if (mesh.closed) {
     ws.volume_base.resize(mesh.vertex_count);
     ws.volume_delta.resize(mesh.vertex_count);
@@ -79,7 +80,7 @@ glm::vec3 blended_position(const Deformable& d, const ContactMesh& mesh, const D
 class GuardPass {
  public:
   GuardPass(const Deformable& d, const ContactMesh& mesh, const DenseOutput& skelform, const DenseOutput& lbs,
-            GuardWorkspace& ws)
+            GuardWorkspace& ws, const JointAffine* joints)
       : d_(d),
         mesh_(mesh),
         skelform_(skelform),
@@ -88,7 +89,10 @@ class GuardPass {
         tri_(mesh.triangles.data()),
         rep_(mesh.representative.data()),
         h_(mesh.hierarchy),
-        intersect_(exact_triangle_test()) {}
+        intersect_(exact_triangle_test()),
+        pose_{ws.positions.data(), rep_, d.dense_joints.data(), d.dense_weights.data(), d.influences, joints},
+        clearance_(joints && ws.use_clearance && !mesh.clearance.empty() &&
+                   ws.clearance_maps.maps.size() == h_.nodes.size()) {}
 
   // The positions of the vertices in `only` and the boxes of their triangles; lists the
   // triangles with a moved corner among those.
@@ -175,13 +179,21 @@ class GuardPass {
   // grew around them. False when the budget ran out.
   bool search(uint32_t round, bool& added) {
     added = false;
-    if (round == 0)
-      return self_pairs_triangle_hierarchy(h_, ws_.node_boxes.data(), ws_.boxes, ws_.wanted.data(),
-                                           ws_.node_flags.data(), ws_.leaf_flags.data(), [&](uint32_t t, uint32_t s) {
-                                             if (!spend()) return false;
-                                             check_exact(t, s, added);
-                                             return true;
-                                           });
+    if (round == 0) {
+      ws_.clearance_maps.next();
+      return self_pairs_triangle_hierarchy(
+          h_, ws_.node_boxes.data(), ws_.boxes, ws_.wanted.data(), ws_.node_flags.data(), ws_.leaf_flags.data(),
+          [&](uint32_t t, uint32_t s) {
+            if (!spend()) return false;
+            check_exact(t, s, added);
+            return true;
+          },
+          [&](uint32_t a, uint32_t b) {
+            const bool apart = clearance_ && leaves_apart(mesh_.clearance, pose_, ws_.clearance_maps, a, b);
+            ws_.leaves_apart += apart;
+            return apart;
+          });
+    }
     for (uint32_t t : ws_.test_list) {
       float bt[6];
       ws_.boxes.get(h_.slot[t], bt);
@@ -338,6 +350,8 @@ class GuardPass {
   const uint32_t* rep_;
   const TriangleHierarchy& h_;
   const ExactTriangleTest intersect_;  // geometry::triangles_intersect, in its fastest form here
+  const ClearancePose pose_;           // the leaves' rest bound (rest_clearance.h)
+  const bool clearance_;               // the first round uses it
   bool record_ = false;
 };
 
@@ -359,9 +373,9 @@ void fall_back_to_lbs(GuardWorkspace& ws) {
 //
 // `hook` (or null; only without `only`) runs after the first search (FirstRoundHook).
 void guard_intersections(const Deformable& d, const ContactMesh& mesh, const DenseOutput& skelform,
-                         const DenseOutput& lbs, GuardWorkspace& ws, const Array<uint32_t>* only = nullptr,
-                         FirstRoundHook* hook = nullptr) {
-  GuardPass pass(d, mesh, skelform, lbs, ws);
+                         const DenseOutput& lbs, GuardWorkspace& ws, const JointAffine* joints,
+                         const Array<uint32_t>* only = nullptr, FirstRoundHook* hook = nullptr) {
+  GuardPass pass(d, mesh, skelform, lbs, ws, joints);
   if (hook) pass.record_pairs();
   ws.test_list.clear();
   if (only) {
@@ -645,23 +659,25 @@ void anchor_junctions(const Deformable& d, const JointAffine* joints, const glm:
 
 void guard_and_blend(const Deformable& d, const ContactMesh& mesh, float scale, const DenseOutput& skelform,
                      const DenseOutput& lbs, bool with_normals, const DenseOutput& out, GuardWorkspace& ws,
-                     FirstRoundHook* hook) {
+                     FirstRoundHook* hook, const JointAffine* joints) {
   const float* weight = d.skelform_weight.data();
   std::fill(ws.factor.begin(), ws.factor.end(), 1.0f);
   ws.corrected_list.clear();
   ws.rounds = 0;
+  ws.leaves_apart = 0;
   ws.volume_share = 1.0f;
   ws.budget = PairBudget(mesh.triangle_count);
   ws.over_budget = false;
   const bool welded = mesh.weld.size() == d.vertex_count && mesh.triangle_count >= 2;
   if (welded) {
-    guard_intersections(d, mesh, skelform, lbs, ws, nullptr, hook);
+    guard_intersections(d, mesh, skelform, lbs, ws, joints, nullptr, hook);
     // A smooth fallback: around every vertex the guard pulled towards LBS, the factor may rise
     // by at most half of what is left per ring, over kGuardRampRings rings; the lowered factors
     // are then checked again (a vertex between K and L is not safe by itself).
     // Only the triangles around a lowered vertex can have a new pair: the rest is as checked.
     // Over the budget, every λ is 0 already (LBS): nothing is left to ramp or to scale.
-    if (!ws.over_budget && ramp_factors(mesh, ws)) guard_intersections(d, mesh, skelform, lbs, ws, &ws.lowered_list);
+    if (!ws.over_budget && ramp_factors(mesh, ws))
+      guard_intersections(d, mesh, skelform, lbs, ws, joints, &ws.lowered_list);
     // Volume: a closed mesh keeps its rest volume, scaled by the pose's reference scale cubed,
     // no worse than LBS does. First by moving the corrected surface along its normals
     // (offset_for_volume, at most the contact pass's largest move), whose new pairs the guard
@@ -675,7 +691,7 @@ void guard_and_blend(const Deformable& d, const ContactMesh& mesh, float scale, 
         double share = volume_share(v, target);
         if (share >= 1.0) break;
         if (offset_for_volume(d, mesh, skelform, lbs, ws, target, double(mesh.cap) * double(scale), v)) {
-          guard_intersections(d, mesh, skelform, lbs, ws);
+          guard_intersections(d, mesh, skelform, lbs, ws, joints);
           if (ws.over_budget) break;
           volume_polynomial(d, mesh, skelform, lbs, ws, v);
           share = volume_share(v, target);
@@ -685,7 +701,7 @@ void guard_and_blend(const Deformable& d, const ContactMesh& mesh, float scale, 
         for (float& f : ws.factor) f *= float(share);
         ws.volume_share *= float(share);
         // The scaled correction is checked again: its pairs must still be LBS's.
-        guard_intersections(d, mesh, skelform, lbs, ws);
+        guard_intersections(d, mesh, skelform, lbs, ws, joints);
         if (share == 0.0 || ws.over_budget) break;
       }
     }

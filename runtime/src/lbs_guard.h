@@ -23,8 +23,9 @@
 // The triangle test is geometry::triangles_intersect (double precision, the metric's own; with
 // AVX, exact_triangles.h's form of it, which gives the same verdict);
 // the broad phase is the welded mesh's triangle hierarchy (triangle_bvh.h): the first round
-// meets it with itself, refitted to the boxes at x; later rounds query it with the triangles
-// whose corners moved, its node boxes grown around their new boxes.
+// meets it with itself, refitted to the boxes at x, and passes over the leaf pairs a bound from
+// the rest pose shows apart (rest_clearance.h, with the caller's joints); later rounds query it
+// with the triangles whose corners moved, its node boxes grown around their new boxes.
 // The guard's work per evaluation is bounded (pair_visit_budget, triangle_bvh.h: candidate
 // pairs its searches visit, linear in the welded triangles): a pose that would need more, a
 // surface tangled over itself as only degenerate or corrupt data gives (the corpus's worst
@@ -92,7 +93,8 @@ struct GuardWorkspace {
         gradient(a),
         volume_base(a),
         volume_delta(a),
-        volume_norm(a) {}
+        volume_norm(a),
+        clearance_maps(a) {}
   Array<float> factor;             // λ per welded vertex
   Array<glm::vec3> positions;      // x per welded vertex
   Array<uint8_t> moved;            // per welded vertex: x differs from L
@@ -124,12 +126,15 @@ struct GuardWorkspace {
   // direction (volume_cubic), in double.
   Array<glm::dvec3> volume_base;
   Array<glm::dvec3> volume_delta;
-  Array<double> volume_norm;  // |base|₁ + |delta|₁: the scale of volume_within's rounding bound
-  PairBudget budget;          // this evaluation's candidate pairs
-  bool over_budget = false;   // the last evaluation ran out of it (and is LBS)
-  uint32_t rounds = 0;        // of the last evaluation
-  uint32_t corrected = 0;     // welded vertices with λ < 1 after the last evaluation
-  float volume_share = 1.0f;  // μ of the last evaluation
+  Array<double> volume_norm;     // |base|₁ + |delta|₁: the scale of volume_within's rounding bound
+  ClearanceMaps clearance_maps;  // the first round's leaf maps (rest_clearance.h)
+  bool use_clearance = true;     // false: the first round tests every leaf pair (for tests)
+  PairBudget budget;             // this evaluation's candidate pairs
+  bool over_budget = false;      // the last evaluation ran out of it (and is LBS)
+  uint32_t rounds = 0;           // of the last evaluation
+  uint32_t leaves_apart = 0;     // leaf pairs the last evaluation's first rounds passed over
+  uint32_t corrected = 0;        // welded vertices with λ < 1 after the last evaluation
+  float volume_share = 1.0f;     // μ of the last evaluation
 };
 
 // Capacity of GuardWorkspace::pair_keys, per welded triangle (the corpus's frames intersect far
@@ -168,8 +173,10 @@ void anchor_junctions(const Deformable& d, const JointAffine* joints, const glm:
 
 // `hook` (or null) runs once, after the first search (FirstRoundHook). On a closed mesh the
 // volume step may move skelform's result K in place (along the normals), with or without a hook.
+// `joints` (JointTransforms::affine, or null): with them, the first round passes over the
+// leaf pairs that rest_clearance.h shows apart (the same verdicts, fewer tests).
 void guard_and_blend(const Deformable& d, const ContactMesh& mesh, float scale, const DenseOutput& skelform,
                      const DenseOutput& lbs, bool with_normals, const DenseOutput& out, GuardWorkspace& ws,
-                     FirstRoundHook* hook = nullptr);
+                     FirstRoundHook* hook = nullptr, const JointAffine* joints = nullptr);
 
 }  // namespace skelform::runtime

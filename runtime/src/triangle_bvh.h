@@ -22,6 +22,7 @@
 #include <cstdint>
 #include <limits>
 #include <type_traits>
+#include <utility>
 
 namespace skelform::runtime {
 
@@ -744,9 +745,12 @@ inline LeafSelfKernel leaf_self_kernel() {  // as leaf_pair_kernel()
 // `leaf_wanted`, a leaf's wanted lanes, are filled here);
 // at two leaves, a triangle meets all lanes of the other leaf at once. A visitor that returns
 // bool stops the search by returning false (a work budget); the call then returns false.
-template <class Visit>
+// `apart(a, b)`, for two leaves (a = b: a leaf against itself), may tell that none of their
+// triangles meet: their pairs are then passed over.
+template <class Visit, class Apart>
 bool self_pairs_triangle_hierarchy(const TriangleHierarchy& h, const float* node_boxes, const SlotBoxes& boxes,
-                                   const uint8_t* wanted, uint8_t* node_wanted, LeafLanes* leaf_wanted, Visit&& visit) {
+                                   const uint8_t* wanted, uint8_t* node_wanted, LeafLanes* leaf_wanted, Visit&& visit,
+                                   Apart&& apart) {
   static_assert(kLeafTriangles % 8 == 0 && kLeafTriangles < 64, "a leaf: groups of eight lanes, its lanes one word");
   if (h.nodes.empty()) return true;
   detail::mark_wanted(h, wanted, node_wanted, leaf_wanted);
@@ -758,6 +762,7 @@ bool self_pairs_triangle_hierarchy(const TriangleHierarchy& h, const float* node
   // row, as the self kernel gives them): all the kernel's lanes of a wanted row, the wanted ones
   // of another. False when the visitor stopped.
   auto leaves = [&](uint32_t a, uint32_t b) {
+    if (apart(a, b)) return true;
     const LeafLanes want_a = leaf_wanted[a], want_b = leaf_wanted[b];
     const HierarchyNode na = h.nodes[a], nb = h.nodes[b];
     LeafLanes hit = a == b ? self_kernel(input, na.first, na.count, node_boxes + 6 * size_t(a),
@@ -817,6 +822,13 @@ bool self_pairs_triangle_hierarchy(const TriangleHierarchy& h, const float* node
     }
   }
   return true;
+}
+
+template <class Visit>
+bool self_pairs_triangle_hierarchy(const TriangleHierarchy& h, const float* node_boxes, const SlotBoxes& boxes,
+                                   const uint8_t* wanted, uint8_t* node_wanted, LeafLanes* leaf_wanted, Visit&& visit) {
+  return self_pairs_triangle_hierarchy(h, node_boxes, boxes, wanted, node_wanted, leaf_wanted,
+                                       std::forward<Visit>(visit), [](uint32_t, uint32_t) { return false; });
 }
 
 }  // namespace skelform::runtime
