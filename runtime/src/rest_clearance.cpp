@@ -258,18 +258,16 @@ RestClearance build_rest_clearance(const TriangleHierarchy& h, const glm::vec3* 
 
 namespace {
 
-// The smallest eigenvalue of the symmetric positive semi-definite G (closed form, Smith 1961).
-double smallest_eigenvalue(const glm::dmat3& g) {
-  const double p1 = g[0][1] * g[0][1] + g[0][2] * g[0][2] + g[1][2] * g[1][2];
+// A lower bound on the smallest eigenvalue of the symmetric G: its eigenvalues sum to 3q (q the
+// mean of the diagonal), and their squared deviations from q to ‖G − qI‖²_F, so none is below
+// q − √(2/3)·‖G − qI‖_F. Tight where G is near a multiple of I, as LᵀL is for a rotation and
+// a scale; no trigonometry.
+double least_eigenvalue_bound(const glm::dmat3& g) {
   const double q = (g[0][0] + g[1][1] + g[2][2]) / 3.0;
-  if (p1 == 0.0) return std::min({g[0][0], g[1][1], g[2][2]});
-  const double p2 =
-      (g[0][0] - q) * (g[0][0] - q) + (g[1][1] - q) * (g[1][1] - q) + (g[2][2] - q) * (g[2][2] - q) + 2.0 * p1;
-  const double p = std::sqrt(p2 / 6.0);
-  const glm::dmat3 b = (1.0 / p) * (g - q * glm::dmat3(1.0));
-  const double r = std::clamp(glm::determinant(b) / 2.0, -1.0, 1.0);
-  const double phi = std::acos(r) / 3.0;
-  return q + 2.0 * p * std::cos(phi + 2.0 * M_PI / 3.0);
+  const double off = g[0][1] * g[0][1] + g[0][2] * g[0][2] + g[1][2] * g[1][2];
+  const double spread =
+      (g[0][0] - q) * (g[0][0] - q) + (g[1][1] - q) * (g[1][1] - q) + (g[2][2] - q) * (g[2][2] - q) + 2.0 * off;
+  return q - std::sqrt(2.0 / 3.0 * spread);
 }
 
 // The largest |(x_v − x_anchor) − L·offset_v|² over a leaf's entries [begin, end), in float,
@@ -364,8 +362,8 @@ const LeafMap& leaf_map(const RestClearance& c, const ClearancePose& pose, Clear
       std::sqrt(double(sums.squared)) * (1.0 + 8.0 * u) + 16.0 * u * (double(sums.spread) + sum * double(c.reach[n]));
   const glm::dmat3 g = glm::transpose(m.linear) * m.linear;
   const double trace = g[0][0] + g[1][1] + g[2][2];
-  // Less the closed form's rounding, a few ulps of G's size.
-  m.stretch = std::sqrt(std::max(0.0, smallest_eigenvalue(g) - 1e-12 * trace));
+  // Less the rounding, a few ulps of G's size.
+  m.stretch = std::sqrt(std::max(0.0, least_eigenvalue_bound(g) - 1e-12 * trace));
   return m;
 }
 
