@@ -348,11 +348,11 @@ const LeafMap& leaf_map(const RestClearance& c, const ClearancePose& pose, Clear
   double sum = 0.0;  // Σ |L_ij|
   for (int row = 0; row < 3; ++row)
     for (int col = 0; col < 3; ++col) {
-      m.linear[col][row] = double(l[3 * row + col]);  // glm is column-major
+      m.linear[col][row] = l[3 * row + col];  // glm is column-major
       sum += std::abs(double(l[3 * row + col]));
     }
   const glm::vec3 xa = pose.positions[anchor];
-  m.anchor = glm::dvec3(xa);
+  m.anchor = xa;
   const StraySums sums = stray_sums(c, pose.positions, c.vertex_offsets[n], c.vertex_offsets[n + 1], l, xa);
   // The float loop's rounding: each coordinate of x_v − x_anchor − L·offset_v, with the offset
   // itself rounded, is within a few units u = 2⁻²⁴ of |x_v − x_anchor|₁ + Σ|L_ij|·reach; the
@@ -360,7 +360,8 @@ const LeafMap& leaf_map(const RestClearance& c, const ClearancePose& pose, Clear
   constexpr double u = 1.0 / 16777216.0;
   m.stray =
       std::sqrt(double(sums.squared)) * (1.0 + 8.0 * u) + 16.0 * u * (double(sums.spread) + sum * double(c.reach[n]));
-  const glm::dmat3 g = glm::transpose(m.linear) * m.linear;
+  const glm::dmat3 linear(m.linear);
+  const glm::dmat3 g = glm::transpose(linear) * linear;
   const double trace = g[0][0] + g[1][1] + g[2][2];
   // Less the rounding, a few ulps of G's size.
   m.stretch = std::sqrt(std::max(0.0, least_eigenvalue_bound(g) - 1e-12 * trace));
@@ -382,9 +383,11 @@ bool leaves_apart(const RestClearance& c, const ClearancePose& pose, ClearanceMa
   if (a != b) {
     // b's vertices under a's map: A_b(q) − A_a(q) at q = c_b + δ, |δ| ≤ ρ_b.
     const glm::dvec3 centre(c.sphere[b]);
-    const glm::dvec3 at_centre = mb.anchor - ma.anchor + mb.linear * (centre - glm::dvec3(c.anchor_rest[b])) -
-                                 ma.linear * (centre - glm::dvec3(c.anchor_rest[a]));
-    const glm::dmat3 difference = mb.linear - ma.linear;
+    const glm::dmat3 la(ma.linear), lb(mb.linear);
+    const glm::dvec3 at_centre = glm::dvec3(mb.anchor) - glm::dvec3(ma.anchor) +
+                                 lb * (centre - glm::dvec3(c.anchor_rest[b])) -
+                                 la * (centre - glm::dvec3(c.anchor_rest[a]));
+    const glm::dmat3 difference = lb - la;
     double frobenius = 0.0;
     for (int col = 0; col < 3; ++col) frobenius += glm::dot(difference[col], difference[col]);
     reach += glm::length(at_centre) + std::sqrt(frobenius) * double(c.sphere[b].w);

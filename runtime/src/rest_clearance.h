@@ -79,10 +79,11 @@ RestClearance build_rest_clearance(const TriangleHierarchy& h, const glm::vec3* 
 double clearance_between(const glm::dvec3* a, const glm::dvec3* b,
                          double enough = std::numeric_limits<double>::infinity());
 
-// A leaf's map in the pose: A(p) = x_anchor + L (p − rest_anchor).
+// A leaf's map in the pose: A(p) = x_anchor + L (p − rest_anchor). L and x_anchor are floats
+// (a blend of the joints' and a position), taken to double where the bound uses them.
 struct LeafMap {
-  glm::dmat3 linear;     // L, the anchor's LBS matrix
-  glm::dvec3 anchor;     // x at the anchor
+  glm::mat3 linear;      // L, the anchor's LBS matrix
+  glm::vec3 anchor;      // x at the anchor
   double stray = 0.0;    // r: at least the largest |x − A(rest)| over the leaf's vertices
   double stretch = 0.0;  // at most σ_min(L)
 };
