@@ -118,7 +118,6 @@ void find_rest_pairs(const glm::vec3* rest_positions, const AllocatorRef& alloca
   welded_rest.resize(mesh.vertex_count);
   for (uint32_t v = 0; v < mesh.vertex_count; ++v) welded_rest[v] = rest_positions[mesh.representative[v]];
   mesh.hierarchy = build_triangle_hierarchy(welded_rest.data(), mesh.triangles.data(), mesh.triangle_count, allocator);
-  mesh.clearance = build_rest_clearance(mesh.hierarchy, welded_rest.data(), mesh.triangles.data(), allocator);
   // The pairs that intersect at rest, by the exact test, through the hierarchy.
   Array<float> node_boxes{CallbackAllocator<float>(allocator)};
   Array<uint8_t> wanted{CallbackAllocator<uint8_t>(allocator)}, node_wanted{CallbackAllocator<uint8_t>(allocator)};
@@ -158,6 +157,9 @@ void find_rest_pairs(const glm::vec3* rest_positions, const AllocatorRef& alloca
     Array<uint64_t>(CallbackAllocator<uint64_t>(allocator)).swap(mesh.rest_pairs);  // its memory too
   }
   std::sort(mesh.rest_pairs.begin(), mesh.rest_pairs.end());
+  // The rest bound of the guard's leaf pairs (none for a mesh tangled over itself at rest).
+  if (!mesh.tangled_at_rest)
+    mesh.clearance = build_rest_clearance(mesh.hierarchy, welded_rest.data(), mesh.triangles.data(), allocator);
 }
 
 }  // namespace

@@ -166,7 +166,11 @@ RestClearance build_rest_clearance(const TriangleHierarchy& h, const glm::vec3* 
       const glm::vec3 offset = welded_rest[c.vertices[k]] - c.anchor_rest[n];  // rounded: see leaf_map
       for (size_t axis = 0; axis < 3; ++axis) c.offsets[axis * entries + k] = offset[int(axis)];
     }
-  // The leaf pairs whose rest boxes meet, by a descent of the hierarchy against itself.
+  // The leaf pairs whose rest boxes meet, by a descent of the hierarchy against itself. Every
+  // leaf pair and every pair of triangles compared spends from a budget linear in the
+  // triangles: a mesh tangled over itself at rest (all boxes meeting all boxes) would make this
+  // quadratic, and gets no clearances (every leaf pair is then tested, as without the bound).
+  PairBudget budget(uint32_t(h.order.size()), kClearanceBudgetSearches);
   struct Pair {
     uint32_t a, b;
   };
@@ -179,6 +183,7 @@ RestClearance build_rest_clearance(const TriangleHierarchy& h, const glm::vec3* 
     const HierarchyNode na = h.nodes[p.a], nb = h.nodes[p.b];
     if (p.a == p.b) {
       if (na.count > 0) {
+        if (!budget.spend()) return RestClearance(allocator);
         leaf_pairs.push_back(p);
       } else {
         stack.push_back({na.first, na.first});
@@ -189,6 +194,7 @@ RestClearance build_rest_clearance(const TriangleHierarchy& h, const glm::vec3* 
     }
     if (!hierarchy_boxes_meet(c.rest_boxes.data() + 6 * size_t(p.a), c.rest_boxes.data() + 6 * size_t(p.b))) continue;
     if (na.count > 0 && nb.count > 0) {
+      if (!budget.spend()) return RestClearance(allocator);
       leaf_pairs.push_back({std::min(p.a, p.b), std::max(p.a, p.b)});
       continue;
     }
@@ -240,6 +246,7 @@ RestClearance build_rest_clearance(const TriangleHierarchy& h, const glm::vec3* 
       const glm::dvec3 pt[3] = {glm::dvec3(welded_rest[ct[0]]), glm::dvec3(welded_rest[ct[1]]),
                                 glm::dvec3(welded_rest[ct[2]])};
       for (uint32_t j = self ? i + 1 : nb.first; j < nb.first + nb.count && least > 0.0; ++j) {
+        if (!budget.spend()) return RestClearance(allocator);
         const uint32_t* cs = triangles + 3 * size_t(h.order[j]);
         if (box_gap_squared(bt, slot_boxes.data() + 6 * size_t(j)) >= least * least) continue;  // as far at least
         if (share_corner(ct, cs)) continue;

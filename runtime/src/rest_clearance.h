@@ -39,6 +39,10 @@ struct JointAffine;
 // The largest D kept, in mean rest edges: a pose whose strays reach further tests anyway.
 constexpr double kClearanceCap = 4.0;
 
+// The load's work bound, in pair_visit_budget()s (triangle_bvh.h: 64 per triangle and 65,536):
+// leaf pairs and triangle pairs compared. The corpus's meshes use at most 45 per triangle.
+constexpr uint64_t kClearanceBudgetSearches = 4;
+
 // Built once per welded mesh (build_rest_clearance); per node, filled at leaves only.
 struct RestClearance {
   explicit RestClearance(const AllocatorRef& a)
@@ -69,7 +73,8 @@ struct RestClearance {
 };
 
 // `welded_rest`: rest position per welded vertex; `triangles`: welded corners, 3 per triangle.
-// Throws std::bad_alloc.
+// Empty (no leaf pair is then passed over) for a mesh tangled over itself at rest, past
+// kClearanceBudgetSearches. Throws std::bad_alloc.
 RestClearance build_rest_clearance(const TriangleHierarchy& h, const glm::vec3* welded_rest, const uint32_t* triangles,
                                    const AllocatorRef& allocator);
 

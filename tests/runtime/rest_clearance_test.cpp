@@ -330,3 +330,25 @@ TEST_CASE(
   CHECK(meeting_pairs > 0);  // LBS folds the tube through itself at 170 degrees: the test can fail
   CHECK(rigid_parted == rigid_pairs);
 }
+
+TEST_CASE("rest clearance: a stack tangled at rest gets no clearances, within a bounded work") {
+  // 3,000 parallel triangles 0.001 apart, each tilted through the whole stack: none meet, and
+  // every box meets every other, so every pair of them would be compared (4.5 million). The
+  // build stops at its budget and leaves the bound out: the guard then tests every leaf pair,
+  // as without it.
+  Tube stack;
+  for (uint32_t t = 0; t < 3000; ++t) {
+    const float z = 0.001f * float(t);
+    stack.positions.insert(stack.positions.end(),
+                           {glm::vec3(-1, -1, z), glm::vec3(1, -1, z + 3.0f), glm::vec3(0, 1, z + 1.5f)});
+    stack.triangles.insert(stack.triangles.end(), {3 * t, 3 * t + 1, 3 * t + 2});
+  }
+  const TriangleHierarchy h = build_triangle_hierarchy(stack.positions.data(), stack.triangles.data(), 3000, {});
+  CHECK(build_rest_clearance(h, stack.positions.data(), stack.triangles.data(), {}).empty());
+  // A clean tube of as many triangles is well within it.
+  Tube tube;
+  add_tube(tube, 95, 16, 0.5f, 0.0f, 6.0f, 0.0f, glm::vec3(0.0f));
+  const TriangleHierarchy t =
+      build_triangle_hierarchy(tube.positions.data(), tube.triangles.data(), tube.triangles.size() / 3, {});
+  CHECK(!build_rest_clearance(t, tube.positions.data(), tube.triangles.data(), {}).empty());
+}
