@@ -386,7 +386,9 @@ bool leaves_apart(const RestClearance& c, const ClearancePose& pose, ClearanceMa
   if (!(clearance > 0.0)) return false;
   const LeafMap& ma = leaf_map(c, pose, maps, a);
   const LeafMap& mb = a == b ? ma : leaf_map(c, pose, maps, b);
+  const double room = ma.stretch * clearance * (1.0 - 1e-6);
   double reach = ma.stray + mb.stray;
+  if (!(room > reach * (1.0 + 1e-6))) return false;  // the strays alone fill it (NaN: no)
   if (a != b) {
     // b's vertices under a's map: A_b(q) − A_a(q) at q = c_b + δ, |δ| ≤ ρ_b.
     const glm::dvec3 centre(c.sphere[b]);
@@ -399,7 +401,7 @@ bool leaves_apart(const RestClearance& c, const ClearancePose& pose, ClearanceMa
     for (int col = 0; col < 3; ++col) frobenius += glm::dot(difference[col], difference[col]);
     reach += glm::length(at_centre) + std::sqrt(frobenius) * double(c.sphere[b].w);
   }
-  return ma.stretch * clearance * (1.0 - 1e-6) > reach * (1.0 + 1e-6);
+  return room > reach * (1.0 + 1e-6);
 }
 
 }  // namespace skelform::runtime
