@@ -110,6 +110,7 @@ RestClearance build_rest_clearance(const TriangleHierarchy& h, const glm::vec3* 
   c.anchor.assign(nodes, 0u);
   c.anchor_rest.assign(nodes, glm::vec3(0.0f));
   c.reach.assign(nodes, 0.0f);
+  c.altitude.assign(nodes, 0.0f);
   c.sphere.assign(nodes, glm::vec4(0.0f));
   c.rest_boxes.assign(6 * nodes, 0.0f);
   // Boxes (children follow their parents: from the back).
@@ -151,6 +152,16 @@ RestClearance build_rest_clearance(const TriangleHierarchy& h, const glm::vec3* 
       if (r < nearest) nearest = r, c.anchor[n] = c.vertices[k];
     }
     c.sphere[n] = glm::vec4(centre, round_up(radius));
+    // The least altitude of the leaf's triangles (twice the area over the longest edge).
+    double altitude = std::numeric_limits<double>::infinity();
+    for (uint32_t i = node.first; i < node.first + node.count; ++i) {
+      const uint32_t* q = triangles + 3 * size_t(h.order[i]);
+      const glm::dvec3 p0(welded_rest[q[0]]), p1(welded_rest[q[1]]), p2(welded_rest[q[2]]);
+      const double longest = std::max({glm::length(p1 - p0), glm::length(p2 - p1), glm::length(p0 - p2)});
+      const double twice_area = glm::length(glm::cross(p1 - p0, p2 - p0));
+      altitude = std::min(altitude, longest > 0.0 ? twice_area / longest * (1.0 - 1e-12) : 0.0);
+    }
+    c.altitude[n] = std::isfinite(altitude) ? round_down(altitude) : 0.0f;
     c.anchor_rest[n] = welded_rest[c.anchor[n]];
     double reach = 0.0;
     for (size_t k = begin; k < c.vertices.size(); ++k) {
@@ -229,9 +240,17 @@ RestClearance build_rest_clearance(const TriangleHierarchy& h, const glm::vec3* 
     for (int k = 0; k < 3; ++k) edge_sum += double(glm::length(welded_rest[q[k]] - welded_rest[q[(k + 1) % 3]]));
   }
   const double cap = h.order.empty() ? 0.0 : kClearanceCap * edge_sum / (3.0 * double(h.order.size()));
-  // Self pairs first (std::stable_partition): they set each leaf's D near its own spacing, which
+  // Self pairs first: they set each leaf's D near its own spacing, which
   // then passes over most pairs of the neighbours' triangles by their boxes.
-  std::stable_partition(leaf_pairs.begin(), leaf_pairs.end(), [](const Pair& p) { return p.a == p.b; });
+  {
+    Array<Pair> ordered{CallbackAllocator<Pair>(allocator)};
+    ordered.reserve(leaf_pairs.size());
+    for (const Pair& p : leaf_pairs)
+      if (p.a == p.b) ordered.push_back(p);
+    for (const Pair& p : leaf_pairs)
+      if (p.a != p.b) ordered.push_back(p);
+    leaf_pairs.swap(ordered);
+  }
   Array<double> least_of{CallbackAllocator<double>(allocator)};
   least_of.assign(nodes, cap);
   for (const Pair& pair : leaf_pairs) {
@@ -365,8 +384,10 @@ const LeafMap& leaf_map(const RestClearance& c, const ClearancePose& pose, Clear
   // itself rounded, is within a few units u = 2⁻²⁴ of |x_v − x_anchor|₁ + Σ|L_ij|·reach; the
   // bound takes 16 (and the square and root, a few u of the result).
   constexpr double u = 1.0 / 16777216.0;
-  m.stray =
-      std::sqrt(double(sums.squared)) * (1.0 + 8.0 * u) + 16.0 * u * (double(sums.spread) + sum * double(c.reach[n]));
+  // Squares below 2⁻¹²⁶ lose their bits (subnormal, or flushed to zero where the caller set
+  // FTZ/DAZ): 2⁻⁶⁰ more covers that in any case.
+  m.stray = std::sqrt(double(sums.squared)) * (1.0 + 8.0 * u) +
+            16.0 * u * (double(sums.spread) + sum * double(c.reach[n])) + std::ldexp(1.0, -60);
   const glm::dmat3 linear(m.linear);
   const glm::dmat3 g = glm::transpose(linear) * linear;
   const double trace = g[0][0] + g[1][1] + g[2][2];
@@ -386,6 +407,13 @@ bool leaves_apart(const RestClearance& c, const ClearancePose& pose, ClearanceMa
   if (!(clearance > 0.0)) return false;
   const LeafMap& ma = leaf_map(c, pose, maps, a);
   const LeafMap& mb = a == b ? ma : leaf_map(c, pose, maps, b);
+  // Neither leaf's triangles collapse: a vertex is at least σ_min·h from the line of its
+  // opposite edge under the map (h: the leaf's least rest altitude), and strays r from there, as
+  // the edge's ends do, so 2r < σ_min·h keeps every altitude positive. (The exact test's axes
+  // part two separated triangles only where neither has collapsed to a segment or a point.)
+  if (!(2.0 * ma.stray < ma.stretch * double(c.altitude[a]) * (1.0 - 1e-6)) ||
+      !(2.0 * mb.stray < mb.stretch * double(c.altitude[b]) * (1.0 - 1e-6)))
+    return false;
   const double room = ma.stretch * clearance * (1.0 - 1e-6);
   double reach = ma.stray + mb.stray;
   if (!(room > reach * (1.0 + 1e-6))) return false;  // the strays alone fill it (NaN: no)

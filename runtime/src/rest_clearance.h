@@ -14,8 +14,13 @@
 // blend on both sides), so two triangles of a and b sharing no corner are at least
 // σ_min(L_a)·D − r_a − r_b' apart, where r_b' = r_b + |A_b(c_b) − A_a(c_b)| + ‖L_b − L_a‖_F ρ_b
 // bounds b's vertices' stray under A_a (c_b, ρ_b: a sphere around b's rest vertices). Where
-// that is positive, with a margin for rounding, the leaves' pairs are apart, and the exact test
-// would say so: the guard's verdicts are those of testing them, bit for bit.
+// that is positive, with a margin for rounding, the leaves' pairs are apart. The exact test says
+// so where neither triangle has collapsed to a segment or a point (its axes are then complete),
+// which 2r < σ_min·h rules out for both leaves (h: the leaf's least rest altitude). So the
+// guard's verdicts are those of testing the pairs, bit for bit; only its work budget
+// (pair_visit_budget), spent on the pairs it tests, lasts longer, so that a pose at its edge may
+// finish where testing every pair would have fallen back to LBS (both keep the guard's promise;
+// the corpus's worst evaluation uses under half of it).
 //
 // Where a leaf moves nearly as its anchor's skin, as most of a limb does, its neighbours are
 // skipped; in a joint's blend zone, where LBS bends the surface over a leaf's span and
@@ -52,6 +57,7 @@ struct RestClearance {
         anchor(a),
         anchor_rest(a),
         reach(a),
+        altitude(a),
         sphere(a),
         rest_boxes(a),
         clearance(a) {}
@@ -63,6 +69,7 @@ struct RestClearance {
   Array<uint32_t> anchor;        // per node: the leaf's vertex nearest its rest box's centre
   Array<glm::vec3> anchor_rest;  // per node: the anchor's rest position
   Array<float> reach;            // per node: the largest |offset| coordinate (rounded up)
+  Array<float> altitude;         // per node: the least altitude of its triangles (rounded down)
   Array<glm::vec4> sphere;       // per node: c (near the rest box's centre) and ρ
   Array<float> rest_boxes;       // per node: its rest box (lo xyz, hi xyz)
   // Per node: D_a, at most the rest distance between a triangle of the leaf and any triangle

@@ -352,3 +352,66 @@ TEST_CASE("rest clearance: a stack tangled at rest gets no clearances, within a 
       build_triangle_hierarchy(tube.positions.data(), tube.triangles.data(), tube.triangles.size() / 3, {});
   CHECK(!build_rest_clearance(t, tube.positions.data(), tube.triangles.data(), {}).empty());
 }
+
+namespace {
+
+// Every pair of leaves of `rest`, posed at `x` under one joint scaled by `scale`: the pairs
+// leaves_apart passes over whose triangles the exact test says meet.
+size_t unsound_pairs(const std::vector<glm::vec3>& rest, const std::vector<uint32_t>& tri,
+                     const std::vector<glm::vec3>& x, float scale) {
+  const uint32_t n = uint32_t(rest.size());
+  const TriangleHierarchy h = build_triangle_hierarchy(rest.data(), tri.data(), tri.size() / 3, {});
+  const RestClearance c = build_rest_clearance(h, rest.data(), tri.data(), {});
+  std::vector<uint16_t> joints(n, 0);
+  std::vector<float> weights(n, 1.0f);
+  std::vector<uint32_t> identity(n);
+  for (uint32_t v = 0; v < n; ++v) identity[v] = v;
+  JointAffine affine{};
+  affine.m[0] = affine.m[5] = affine.m[10] = scale;
+  ClearanceMaps maps{AllocatorRef{}};
+  maps.resize(h.nodes.size());
+  maps.next();
+  const ClearancePose pose{x.data(), identity.data(), joints.data(), weights.data(), 1, &affine};
+  size_t unsound = 0;
+  for (uint32_t a : leaves_of(h))
+    for (uint32_t b : leaves_of(h)) {
+      if (!leaves_apart(c, pose, maps, a, b)) continue;
+      for (uint32_t i = h.nodes[a].first; i < h.nodes[a].first + h.nodes[a].count; ++i)
+        for (uint32_t j = h.nodes[b].first; j < h.nodes[b].first + h.nodes[b].count; ++j) {
+          const uint32_t* p = &tri[3 * size_t(h.order[i])];
+          const uint32_t* q = &tri[3 * size_t(h.order[j])];
+          if (i == j || share_corner(p, q)) continue;
+          unsound +=
+              skelform::geometry::triangles_intersect(glm::dvec3(x[p[0]]), glm::dvec3(x[p[1]]), glm::dvec3(x[p[2]]),
+                                                      glm::dvec3(x[q[0]]), glm::dvec3(x[q[1]]), glm::dvec3(x[q[2]]));
+        }
+    }
+  return unsound;
+}
+
+}  // namespace
+
+TEST_CASE("rest clearance: triangles collapsed in the pose, and poses scaled far down, are tested") {
+  // A sliver that flattens to a segment and a small triangle that collapses to a point beside
+  // it: far apart, but the exact test's axes are all zero for that pair, and it says they meet.
+  // The bound must leave such a pair to the test.
+  {
+    const float e = 1e-3f;
+    const std::vector<glm::vec3> rest = {{0, 0, 0},       {2, 2, 0},           {1, 1, e},
+                                         {1.5f, 0.5f, 0}, {1.5f + e, 0.5f, 0}, {1.5f, 0.5f + e, 0}};
+    std::vector<glm::vec3> x = rest;
+    x[2] = {1, 1, 0};
+    x[4] = x[5] = x[3];
+    CHECK(unsound_pairs(rest, {0, 1, 2, 3, 4, 5}, x, 1.0f) == 0);
+  }
+  // Two triangles a unit apart, the pose scaled by 1e-24 and a corner pushed through the other
+  // triangle: the strays' squares underflow in float.
+  {
+    const float s = 1e-24f;
+    const std::vector<glm::vec3> rest = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {0, 0, 1}, {1, 0, 1}, {0, 1, 1}};
+    std::vector<glm::vec3> x(rest.size());
+    for (size_t v = 0; v < rest.size(); ++v) x[v] = s * rest[v];
+    x[3] = s * glm::vec3(0.2f, 0.2f, -1.0f);
+    CHECK(unsound_pairs(rest, {0, 1, 2, 3, 4, 5}, x, s) == 0);
+  }
+}
