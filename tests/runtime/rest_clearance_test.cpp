@@ -355,27 +355,32 @@ TEST_CASE("rest clearance: a stack tangled at rest gets no clearances, within a 
 
 namespace {
 
-// Every pair of leaves of `rest`, posed at `x` under one joint scaled by `scale`: the pairs
-// leaves_apart passes over whose triangles the exact test says meet.
+// Every pair of leaves of `rest`, posed at `x`: the pairs leaves_apart passes over (counted in
+// `parted`) whose triangles the exact test says meet. `joints` (or empty: all 0) names each
+// vertex's one joint among `affine` (or empty: one joint, scaled by `scale`).
 size_t unsound_pairs(const std::vector<glm::vec3>& rest, const std::vector<uint32_t>& tri,
-                     const std::vector<glm::vec3>& x, float scale) {
+                     const std::vector<glm::vec3>& x, float scale, std::vector<uint16_t> joints = {},
+                     std::vector<JointAffine> affine = {}, size_t* parted = nullptr) {
   const uint32_t n = uint32_t(rest.size());
   const TriangleHierarchy h = build_triangle_hierarchy(rest.data(), tri.data(), tri.size() / 3, {});
   const RestClearance c = build_rest_clearance(h, rest.data(), tri.data(), {});
-  std::vector<uint16_t> joints(n, 0);
+  if (joints.empty()) joints.assign(n, 0);
   std::vector<float> weights(n, 1.0f);
   std::vector<uint32_t> identity(n);
   for (uint32_t v = 0; v < n; ++v) identity[v] = v;
-  JointAffine affine{};
-  affine.m[0] = affine.m[5] = affine.m[10] = scale;
+  if (affine.empty()) {
+    affine.emplace_back();
+    affine[0].m[0] = affine[0].m[5] = affine[0].m[10] = scale;
+  }
   ClearanceMaps maps{AllocatorRef{}};
   maps.resize(h.nodes.size());
   maps.next();
-  const ClearancePose pose{x.data(), identity.data(), joints.data(), weights.data(), 1, &affine};
+  const ClearancePose pose{x.data(), identity.data(), joints.data(), weights.data(), 1, affine.data()};
   size_t unsound = 0;
   for (uint32_t a : leaves_of(h))
     for (uint32_t b : leaves_of(h)) {
       if (!leaves_apart(c, pose, maps, a, b)) continue;
+      if (parted) ++*parted;
       for (uint32_t i = h.nodes[a].first; i < h.nodes[a].first + h.nodes[a].count; ++i)
         for (uint32_t j = h.nodes[b].first; j < h.nodes[b].first + h.nodes[b].count; ++j) {
           const uint32_t* p = &tri[3 * size_t(h.order[i])];
@@ -414,4 +419,47 @@ TEST_CASE("rest clearance: triangles collapsed in the pose, and poses scaled far
     x[3] = s * glm::vec3(0.2f, 0.2f, -1.0f);
     CHECK(unsound_pairs(rest, {0, 1, 2, 3, 4, 5}, x, s) == 0);
   }
+}
+
+TEST_CASE("rest clearance: two sheets turned against each other about one's centre are tested") {
+  // Two 8×8 sheets of 4×4 quads, 3 apart (a leaf each, anchored at its centre), each carried by
+  // its own joint; the upper one turns by 60 degrees about its own centre, so its map agrees
+  // with the lower's there and both strays are 0, but
+  // its edges dip through the lower sheet: only the maps' difference away from the centre
+  // (‖L_b − L_a‖ρ_b) keeps the pair in the test.
+  std::vector<glm::vec3> rest;
+  std::vector<uint32_t> tri;
+  std::vector<uint16_t> joints;
+  for (int sheet = 0; sheet < 2; ++sheet) {
+    const uint32_t first = uint32_t(rest.size());
+    for (int i = 0; i <= 4; ++i)
+      for (int j = 0; j <= 4; ++j) {
+        rest.emplace_back(2.0f * float(i), 2.0f * float(j), 3.0f * float(sheet));
+        joints.push_back(uint16_t(sheet));
+      }
+    for (uint32_t i = 0; i < 4; ++i)
+      for (uint32_t j = 0; j < 4; ++j) {
+        const uint32_t v = first + 5 * i + j;
+        tri.insert(tri.end(), {v, v + 5, v + 6, v, v + 6, v + 1});
+      }
+  }
+  const glm::mat4 turn = glm::translate(glm::mat4(1.0f), glm::vec3(4, 4, 3)) *
+                         glm::rotate(glm::mat4(1.0f), glm::radians(60.0f), glm::vec3(1, 0, 0)) *
+                         glm::translate(glm::mat4(1.0f), glm::vec3(-4, -4, -3));
+  std::vector<JointAffine> affine(2);
+  for (int j = 0; j < 2; ++j) {
+    const glm::mat4 m = j == 0 ? glm::mat4(1.0f) : turn;
+    for (int row = 0; row < 3; ++row)
+      for (int col = 0; col < 4; ++col) affine[size_t(j)].m[4 * row + col] = m[col][row];
+  }
+  std::vector<glm::vec3> x(rest.size());
+  for (size_t v = 0; v < rest.size(); ++v) x[v] = transform_point(affine[joints[v]].m, rest[v]);
+  size_t parted = 0;
+  CHECK(unsound_pairs(rest, tri, x, 1.0f, joints, affine, &parted) == 0);
+  // Unturned, the sheets are parted (rigid, 3 apart): the test above is not vacuous.
+  size_t rigid = 0;
+  affine[1] = affine[0];
+  CHECK(unsound_pairs(rest, tri, rest, 1.0f, joints, affine, &rigid) == 0);
+  MESSAGE("parted " << parted << " leaf pairs turned, " << rigid << " unturned");
+  CHECK(rigid > parted);
 }
