@@ -21,11 +21,6 @@ namespace {
 
 glm::dvec3 widen(const glm::vec3& p) { return glm::dvec3(p); }
 
-bool share_corner(const uint32_t* a, const uint32_t* b) {
-  return a[0] == b[0] || a[0] == b[1] || a[0] == b[2] || a[1] == b[0] || a[1] == b[1] || a[1] == b[2] || a[2] == b[0] ||
-         a[2] == b[1] || a[2] == b[2];
-}
-
 inline void triangle_box(const glm::vec3& p0, const glm::vec3& p1, const glm::vec3& p2, float* b) {
   const glm::vec3 lo = glm::min(glm::min(p0, p1), p2), hi = glm::max(glm::max(p0, p1), p2);
   b[0] = lo.x, b[1] = lo.y, b[2] = lo.z, b[3] = hi.x, b[4] = hi.y, b[5] = hi.z;
@@ -200,7 +195,8 @@ class GuardPass {
       const bool complete = query_triangle_hierarchy(h_, ws_.node_boxes.data(), ws_.boxes, bt, [&](uint32_t s) {
         // Each pair once: two triangles of this round's list meet when the larger queries.
         if (s == t || (ws_.tested[s] && s > t)) return true;
-        if (share_corner(tri_ + 3 * size_t(t), tri_ + 3 * size_t(s))) return true;  // as the first round's kernel
+        if (triangles_share_corner(tri_ + 3 * size_t(t), tri_ + 3 * size_t(s)))
+          return true;  // as the first round's kernel
         if (!spend()) return false;
         check_exact(t, s, added);
         return true;

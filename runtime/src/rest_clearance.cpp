@@ -59,13 +59,6 @@ float round_down(double d) {
   return f;
 }
 
-bool share_corner(const uint32_t* a, const uint32_t* b) {
-  for (int i = 0; i < 3; ++i)
-    for (int j = 0; j < 3; ++j)
-      if (a[i] == b[j]) return true;
-  return false;
-}
-
 }  // namespace
 
 double clearance_between(const glm::dvec3* a_in, const glm::dvec3* b_in, double enough) {
@@ -268,7 +261,7 @@ RestClearance build_rest_clearance(const TriangleHierarchy& h, const glm::vec3* 
         if (!budget.spend()) return RestClearance(allocator);
         const uint32_t* cs = triangles + 3 * size_t(h.order[j]);
         if (box_gap_squared(bt, slot_boxes.data() + 6 * size_t(j)) >= least * least) continue;  // as far at least
-        if (share_corner(ct, cs)) continue;
+        if (triangles_share_corner(ct, cs)) continue;
         const glm::dvec3 ps[3] = {glm::dvec3(welded_rest[cs[0]]), glm::dvec3(welded_rest[cs[1]]),
                                   glm::dvec3(welded_rest[cs[2]])};
         least = std::min(least, clearance_between(pt, ps, least));

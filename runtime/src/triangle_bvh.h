@@ -318,6 +318,13 @@ inline void grow_triangle_hierarchy(const TriangleHierarchy& h, size_t slot, con
   }
 }
 
+// Whether two triangles (three corner indices each) share a corner: the searches pass over such
+// pairs (adjacent triangles touch by construction).
+inline bool triangles_share_corner(const uint32_t* a, const uint32_t* b) {
+  return a[0] == b[0] || a[0] == b[1] || a[0] == b[2] || a[1] == b[0] || a[1] == b[1] || a[1] == b[2] || a[2] == b[0] ||
+         a[2] == b[1] || a[2] == b[2];
+}
+
 inline bool hierarchy_boxes_meet(const float* a, const float* b) {
   return a[0] <= b[3] && b[0] <= a[3] && a[1] <= b[4] && b[1] <= a[4] && a[2] <= b[5] && b[2] <= a[5];
 }
