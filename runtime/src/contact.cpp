@@ -19,6 +19,7 @@ namespace {
 
 constexpr uint32_t kEntriesPerTriangle = 8;  // grid entries reserved per triangle (it overlaps ~3 cells)
 constexpr uint32_t kCellsPerTriangle = 4;    // grid cells at most, per triangle
+constexpr uint32_t kStarMaskBits = 32;       // star triangles ContactWorkspace::candidate_shared tells apart
 constexpr int kMaxCellsPerAxis = 1024;
 constexpr uint8_t kActive = 1, kMoved = 2, kMovable = 4;  // ContactWorkspace::state bits
 constexpr uint32_t kLookAgain = UINT32_MAX;               // ContactWorkspace::seen: it moved then
@@ -133,9 +134,22 @@ class Grid {
   void gather(uint32_t v, float reach, float* region) {
     if (++ws_.stamp == 0) {  // wrapped: forget every old mark
       std::fill(ws_.stamps.begin(), ws_.stamps.end(), 0u);
+      std::fill(ws_.corner_stamps.begin(), ws_.corner_stamps.end(), 0u);
       ws_.stamp = 1;
     }
     ws_.candidates.clear();
+    // The star triangles each corner of v's star belongs to (v itself: all of them).
+    const uint32_t star_first = mesh_.incident_offsets[v];
+    const uint32_t star_size = std::min(mesh_.incident_offsets[v + 1] - star_first, kStarMaskBits);
+    for (uint32_t k = 0; k < star_size; ++k) {
+      const uint32_t* q = mesh_.triangles.data() + 3 * size_t(mesh_.incident[star_first + k]);
+      for (int corner = 0; corner < 3; ++corner) {
+        const uint32_t c = q[corner];
+        if (ws_.corner_stamps[c] != ws_.stamp) ws_.corner_stamps[c] = ws_.stamp, ws_.corner_stars[c] = 0;
+        ws_.corner_stars[c] |= 1u << k;
+      }
+    }
+    auto stars_of = [&](uint32_t c) { return ws_.corner_stamps[c] == ws_.stamp ? ws_.corner_stars[c] : 0u; };
     const uint32_t* offsets = ws_.cell_offsets.data();
     // The star of v (its triangles' box) grown by v's reach: where its triangles can be.
     glm::vec3 lo, hi;
@@ -156,6 +170,8 @@ class Grid {
       const size_t plane = ws_.candidate_stride;
       stored[0] = a.x, stored[plane] = a.y, stored[2 * plane] = a.z;
       stored[3 * plane] = b.x, stored[4 * plane] = b.y, stored[5 * plane] = b.z;
+      const uint32_t* q = mesh_.triangles.data() + 3 * size_t(t);
+      ws_.candidate_shared[ws_.candidates.size()] = stars_of(q[0]) | stars_of(q[1]) | stars_of(q[2]);
       ws_.candidates.push_back(t);  // at most every triangle: reserved
     };
     if (shared_) {
@@ -186,11 +202,15 @@ class Grid {
   // does; pass UINT32_MAX to count every pair).
   // With SSE2, four candidates' boxes at a time while the budget holds four more visits (it is
   // spent as one visit per candidate, in order, as the scalar loop spends it).
+  // A candidate that shares a corner with the star triangle (gather()'s candidate_shared) is
+  // passed over as meet() would reject it: most of those whose boxes meet are such neighbours.
   uint32_t pairs_around(uint32_t v, glm::vec3* push, uint32_t stop_above = UINT32_MAX) const {
     uint32_t count = 0;
     const size_t candidates = ws_.candidates.size();
     const float* planes = ws_.candidate_boxes.data();
+    const uint32_t* shared = ws_.candidate_shared.data();
     const size_t plane = ws_.candidate_stride;
+    const uint32_t star_first = mesh_.incident_offsets[v];
     // Candidate i's box meets the star triangle's (a, b) and the triangles intersect: counted,
     // and its push added. True when the count has passed stop_above.
     auto pair = [&](uint32_t s, size_t i) {
@@ -202,12 +222,14 @@ class Grid {
     };
     for (uint32_t k = mesh_.incident_offsets[v]; k < mesh_.incident_offsets[v + 1]; ++k) {
       const uint32_t s = mesh_.incident[k];
+      const uint32_t bit = k - star_first < kStarMaskBits ? 1u << (k - star_first) : 0u;
       glm::vec3 a, b;
       box(s, a, b);
       size_t i = 0;
 #if defined(__SSE2__)
       const __m128 ax = _mm_set1_ps(a.x), ay = _mm_set1_ps(a.y), az = _mm_set1_ps(a.z);
       const __m128 bx = _mm_set1_ps(b.x), by = _mm_set1_ps(b.y), bz = _mm_set1_ps(b.z);
+      const __m128i star_bit = _mm_set1_epi32(int(bit));
       for (; i + 4 <= candidates && ws_.budget.left >= 4; i += 4) {
         ws_.budget.left -= 4;
         const float* c = planes + i;
@@ -217,7 +239,10 @@ class Grid {
                 _mm_or_ps(_mm_cmpgt_ps(ax, _mm_loadu_ps(c + 3 * plane)), _mm_cmpgt_ps(_mm_loadu_ps(c), bx)),
                 _mm_or_ps(_mm_cmpgt_ps(ay, _mm_loadu_ps(c + 4 * plane)), _mm_cmpgt_ps(_mm_loadu_ps(c + plane), by))),
             _mm_or_ps(_mm_cmpgt_ps(az, _mm_loadu_ps(c + 5 * plane)), _mm_cmpgt_ps(_mm_loadu_ps(c + 2 * plane), bz)));
-        for (int hits = ~_mm_movemask_ps(apart) & 0xF; hits; hits &= hits - 1) {
+        const __m128i neighbour =
+            _mm_and_si128(_mm_loadu_si128(reinterpret_cast<const __m128i*>(shared + i)), star_bit);
+        const __m128 skip = _mm_or_ps(apart, _mm_castsi128_ps(_mm_cmpeq_epi32(neighbour, star_bit)));
+        for (int hits = ~_mm_movemask_ps(bit ? skip : apart) & 0xF; hits; hits &= hits - 1) {
           const int lane = __builtin_ctz(unsigned(hits));
           if (pair(s, i + size_t(lane))) {
             ws_.budget.left += uint64_t(3 - lane);  // the lanes after it were not visited
@@ -229,8 +254,8 @@ class Grid {
       for (; i < candidates; ++i) {
         if (!ws_.budget.spend()) return count;
         const float* c = planes + i;
-        if (a.x > c[3 * plane] || c[0] > b.x || a.y > c[4 * plane] || c[plane] > b.y || a.z > c[5 * plane] ||
-            c[2 * plane] > b.z)
+        if ((shared[i] & bit) || a.x > c[3 * plane] || c[0] > b.x || a.y > c[4 * plane] || c[plane] > b.y ||
+            a.z > c[5 * plane] || c[2 * plane] > b.z)
           continue;
         if (pair(s, i)) return count;
       }
@@ -449,6 +474,9 @@ ContactWorkspace make_contact_workspace(const ContactMesh& mesh, const Allocator
   ws.candidates.reserve(mesh.triangle_count);
   ws.candidate_stride = mesh.triangle_count;
   ws.candidate_boxes.resize(6 * ws.candidate_stride);
+  ws.candidate_shared.resize(mesh.triangle_count);
+  ws.corner_stars.resize(mesh.vertex_count);
+  ws.corner_stamps.assign(mesh.vertex_count, 0u);
   const size_t looks = std::min<size_t>(mesh.vertex_count, kContactSkipCapacity);
   ws.regions.resize(6 * looks);
   ws.seen.resize(looks);

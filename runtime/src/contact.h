@@ -97,6 +97,9 @@ struct ContactWorkspace {
         stamps(a),
         candidates(a),
         candidate_boxes(a),
+        candidate_shared(a),
+        corner_stars(a),
+        corner_stamps(a),
         regions(a),
         seen(a),
         move_boxes(a),
@@ -116,6 +119,13 @@ struct ContactWorkspace {
   // floats each (one per triangle): pairs_around compares four candidates at a time.
   Array<float> candidate_boxes;
   size_t candidate_stride = 0;
+  // Per candidate: bit k set when it shares a corner with triangle k of the gathered vertex's
+  // star (its incident triangles, k < 32), a pair that never counts. Built from corner_stars:
+  // per welded vertex, the star triangles it is a corner of, valid where corner_stamps holds
+  // the gather's stamp.
+  Array<uint32_t> candidate_shared;
+  Array<uint32_t> corner_stars;
+  Array<uint32_t> corner_stamps;
   // Per active vertex (by its place in `active`, up to kContactSkipCapacity): where its last
   // look found its candidates (its star's box grown by the reach of its last gather; lo xyz, hi
   // xyz) and the pass's count of moves then (or kLookAgain). A ring of the last moves' boxes, as
