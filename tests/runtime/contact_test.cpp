@@ -192,6 +192,54 @@ TEST_CASE("contact: passing over vertices near which nothing moved changes nothi
   }
 }
 
+// A vertex of high valence: the pass tells a star's triangles from their neighbours by a mask
+// of 32 bits (Grid::gather), and a star of more triangles goes through the corner test for the
+// rest. A cone of 40 triangles whose apex is pushed 0.1 through the cube's top face, with a
+// cap of 40 more: the apex comes back out, nothing else moves.
+TEST_CASE("contact: an apex with 40 triangles around it is pushed out like a tip of four") {
+  constexpr uint32_t kRing = 40;
+  std::vector<glm::vec3> x{glm::vec3(0.5f, 0.5f, 0.9f)};  // the apex
+  for (uint32_t i = 0; i < kRing; ++i) {
+    const float angle = 6.2831853f * float(i) / float(kRing);
+    x.emplace_back(0.5f + 0.4f * std::cos(angle), 0.5f + 0.4f * std::sin(angle), 1.5f);
+  }
+  x.emplace_back(0.5f, 0.5f, 1.5f);  // the cap's centre
+  std::vector<uint32_t> triangles;
+  for (uint32_t i = 0; i < kRing; ++i) {
+    const uint32_t a = 1 + i, b = 1 + (i + 1) % kRing;
+    triangles.insert(triangles.end(), {0, a, b, kRing + 1, b, a});
+  }
+  const uint32_t base = uint32_t(x.size());
+  for (int i = 0; i < 8; ++i) x.emplace_back(float(i & 1), float((i >> 1) & 1), float((i >> 2) & 1));
+  for (uint32_t i :
+       {0, 2, 3, 0, 3, 1, 4, 5, 7, 4, 7, 6, 0, 1, 5, 0, 5, 4, 2, 6, 7, 2, 7, 3, 0, 4, 6, 0, 6, 2, 1, 3, 7, 1, 7, 5})
+    triangles.push_back(base + i);
+  std::vector<glm::vec3> rest = x;
+  rest[0].z = 1.2f;  // apart at rest
+  std::vector<std::array<uint32_t, 3>> indexed;
+  for (size_t t = 0; t < triangles.size(); t += 3)
+    indexed.push_back({triangles[t], triangles[t + 1], triangles[t + 2]});
+  auto pairs = [&](const std::vector<glm::vec3>& at) {
+    return skelform::test::brute_force_pairs(indexed, [&](uint32_t v) { return glm::dvec3(at[v]); }).size();
+  };
+  const ContactMesh mesh = build_contact_mesh(rest.data(), uint32_t(rest.size()), triangles.data(), indexed.size(), {});
+  ContactWorkspace workspace = make_grid_workspace(mesh);
+  REQUIRE(mesh.incident_offsets[1] - mesh.incident_offsets[0] == kRing);
+  const std::vector<glm::vec3> posed = x;
+  const size_t before = pairs(x);
+  REQUIRE(before >= kRing);  // every triangle around the apex crosses the top face
+  const ContactStats stats = resolve_contacts(mesh, 1.0f, x.data(), uint32_t(x.size()), workspace);
+  MESSAGE("pairs " << before << " -> " << pairs(x) << ", apex at z = " << x[0].z);
+  // (Detection passes over cells of near-parallel triangles, Grid::for_each_pair: it needs only
+  // one pair per vertex to resolve.)
+  CHECK(stats.pairs_before > 0);
+  CHECK(stats.pairs_before <= before);
+  CHECK(stats.moved == 1);
+  CHECK(pairs(x) == 0);
+  CHECK(x[0].z > 1.0f);
+  for (size_t v = 1; v < x.size(); ++v) CHECK(std::memcmp(&x[v], &posed[v], sizeof(glm::vec3)) == 0);
+}
+
 TEST_CASE("contact: no intersection, no change; welded copies move together; non-finite input is left alone") {
   SUBCASE("apart") {
     const Scene scene(1.1f);
