@@ -220,7 +220,7 @@ class Grid {
       if (push) add_push(v, t, *push);
       return count > stop_above;
     };
-    for (uint32_t k = mesh_.incident_offsets[v]; k < mesh_.incident_offsets[v + 1]; ++k) {
+    for (uint32_t k = star_first; k < mesh_.incident_offsets[v + 1]; ++k) {
       const uint32_t s = mesh_.incident[k];
       const uint32_t bit = k - star_first < kStarMaskBits ? 1u << (k - star_first) : 0u;
       glm::vec3 a, b;
@@ -239,10 +239,11 @@ class Grid {
                 _mm_or_ps(_mm_cmpgt_ps(ax, _mm_loadu_ps(c + 3 * plane)), _mm_cmpgt_ps(_mm_loadu_ps(c), bx)),
                 _mm_or_ps(_mm_cmpgt_ps(ay, _mm_loadu_ps(c + 4 * plane)), _mm_cmpgt_ps(_mm_loadu_ps(c + plane), by))),
             _mm_or_ps(_mm_cmpgt_ps(az, _mm_loadu_ps(c + 5 * plane)), _mm_cmpgt_ps(_mm_loadu_ps(c + 2 * plane), bz)));
+        // The lanes that share no corner with s (all of them past the mask's 32 triangles: bit 0).
         const __m128i neighbour =
             _mm_and_si128(_mm_loadu_si128(reinterpret_cast<const __m128i*>(shared + i)), star_bit);
-        const __m128 skip = _mm_or_ps(apart, _mm_castsi128_ps(_mm_cmpeq_epi32(neighbour, star_bit)));
-        for (int hits = ~_mm_movemask_ps(bit ? skip : apart) & 0xF; hits; hits &= hits - 1) {
+        const int other = _mm_movemask_ps(_mm_castsi128_ps(_mm_cmpeq_epi32(neighbour, _mm_setzero_si128())));
+        for (int hits = ~_mm_movemask_ps(apart) & other & 0xF; hits; hits &= hits - 1) {
           const int lane = __builtin_ctz(unsigned(hits));
           if (pair(s, i + size_t(lane))) {
             ws_.budget.left += uint64_t(3 - lane);  // the lanes after it were not visited
