@@ -406,9 +406,7 @@ class Grid {
   bool meet(uint32_t s, uint32_t t) const {
     const uint32_t* p = mesh_.triangles.data() + 3 * size_t(s);
     const uint32_t* q = mesh_.triangles.data() + 3 * size_t(t);
-    if (s == t || p[0] == q[0] || p[0] == q[1] || p[0] == q[2] || p[1] == q[0] || p[1] == q[1] || p[1] == q[2] ||
-        p[2] == q[0] || p[2] == q[1] || p[2] == q[2])
-      return false;
+    if (s == t || triangles_share_corner(p, q)) return false;
     return triangles_meet(x_[p[0]], x_[p[1]], x_[p[2]], x_[q[0]], x_[q[1]], x_[q[2]]);
   }
   bool stored_boxes_meet(uint32_t s, uint32_t t) const {
