@@ -142,6 +142,11 @@ FairingWorkspace make_fairing_workspace(const FairingTopology& topology, uint32_
   ws.reference_bi.assign(n, glm::vec3(0.0f));
   ws.bi_reference.assign(n, glm::vec3(0.0f));
   ws.hull_case.assign(topology.triangle_count, kHullCaseUnknown);
+  ws.fixed_mask.assign(n, 2);
+  ws.active.assign(n, 0);
+  ws.ring.assign(n, 0);
+  ws.active_triangles.assign(topology.triangle_count, 0);
+  ws.ring_mark.assign(n, 0);
   return ws;
 }
 
@@ -156,22 +161,29 @@ float bounding_diagonal(const glm::vec3* positions, size_t vertex_count) {
 }
 
 // The run's targets relative to rest: the rest umbrellas turned into this evaluation's frames
-// and, with a smoothing reference, its U².
+// and, with a smoothing reference, its U² (U where the active set needs U, U² at its free
+// vertices).
 fair_detail::Targets rest_targets(const FairingTopology& topology, const FairingParams& params, const FairingRest& rest,
                                   const glm::mat3* frames, size_t vertex_count, FairingWorkspace& workspace) {
   using fair_detail::umbrella_pass;
+  const fair_detail::VertexSet free = fair_detail::free_vertices(workspace),
+                               ring = fair_detail::ring_vertices(workspace);
   if (params.smoothing_reference) {
     // U² of the reference surface (the unfaired reconstruction M): smoothing against it
     // smooths the correction x − M itself.
     const glm::vec3* reference_umbrella = params.smoothing_reference_umbrella;
     if (!reference_umbrella) {
-      umbrella_pass(topology, params.smoothing_reference, workspace.target_umbrella.data());
+      umbrella_pass(topology, params.smoothing_reference, workspace.target_umbrella.data(), ring);
       reference_umbrella = workspace.target_umbrella.data();
     }
-    umbrella_pass(topology, reference_umbrella, workspace.reference_bi.data());
+    umbrella_pass(topology, reference_umbrella, workspace.reference_bi.data(), free);
   }
-  for (size_t v = 0; v < vertex_count; ++v) {
+  for (uint32_t i = 0; i < ring.count; ++i) {
+    const uint32_t v = ring[i];
     workspace.target_umbrella[v] = frames[v] * rest.umbrella[v];
+  }
+  for (uint32_t i = 0; i < free.count; ++i) {
+    const uint32_t v = free[i];
     workspace.target_bi_umbrella[v] = frames[v] * rest.bi_umbrella[v];
   }
   return {workspace.target_umbrella.data(),
@@ -183,10 +195,49 @@ fair_detail::Targets rest_targets(const FairingTopology& topology, const Fairing
           rest.skeletal.size() == vertex_count ? rest.skeletal.data() : nullptr};
 }
 
-// The largest squared motion from `start` (non-finite ones ignored): one square root at the end.
-float largest_squared_motion(const glm::vec3* positions, const glm::vec3* start, size_t vertex_count) {
+// The run's active set (FairingWorkspace: the free vertices, their one-rings and the triangles
+// with a free corner), rebuilt only when which vertices are fixed has changed since the last
+// run. A vertex that is fixed now gets its per-vertex scratch zeroed, since the steps write
+// only the free vertices'.
+void update_active_set(const FairingTopology& topo, FairingWorkspace& ws) {
+  const uint32_t n = topo.vertex_count;
+  bool changed = false;
+  for (uint32_t v = 0; v < n; ++v) {
+    const uint8_t fixed = fair_detail::is_fixed(topo, ws, v) ? 1 : 0;
+    changed = changed || ws.fixed_mask[v] != fixed;
+    ws.fixed_mask[v] = fixed;
+  }
+  if (!changed) return;
+  std::fill(ws.ring_mark.begin(), ws.ring_mark.end(), uint8_t{0});
+  ws.active_count = 0;
+  for (uint32_t v = 0; v < n; ++v) {
+    if (ws.fixed_mask[v]) {
+      ws.displacement[v] = ws.force_direction[v] = glm::vec3(0.0f);
+      ws.smoothing_weight[v] = ws.tangential_weight[v] = 0.0f;
+      continue;
+    }
+    ws.active[ws.active_count++] = v;
+    ws.ring_mark[v] = 1;
+    for (uint32_t k = topo.neighbour_offsets[v]; k < topo.neighbour_offsets[v + 1]; ++k)
+      ws.ring_mark[topo.neighbours[k]] = 1;
+  }
+  ws.ring_count = 0;
+  for (uint32_t v = 0; v < n; ++v)
+    if (ws.ring_mark[v]) ws.ring[ws.ring_count++] = v;
+  ws.active_triangle_count = 0;
+  for (uint32_t t = 0; t < topo.triangle_count; ++t) {
+    const uint32_t* corner = topo.triangle_indices.data() + 3 * size_t{t};
+    if (!ws.fixed_mask[corner[0]] || !ws.fixed_mask[corner[1]] || !ws.fixed_mask[corner[2]])
+      ws.active_triangles[ws.active_triangle_count++] = t;
+  }
+}
+
+// The largest squared motion from `start` over the free vertices (non-finite ones ignored; the
+// fixed ones do not move): one square root at the end.
+float largest_squared_motion(const glm::vec3* positions, const glm::vec3* start, const FairingWorkspace& ws) {
   float moved = 0.0f;
-  for (size_t v = 0; v < vertex_count; ++v) {
+  for (uint32_t i = 0; i < ws.active_count; ++i) {
+    const uint32_t v = ws.active[i];
     const glm::vec3 d = positions[v] - start[v];
     const float squared = glm::dot(d, d);
     if (std::isfinite(squared)) moved = std::max(moved, squared);
@@ -217,6 +268,7 @@ float fair_run(const FairingTopology& topology, const glm::vec3* skeletal, const
   workspace.rest_edge = rest && rest->mean_edge.size() == vertex_count ? rest->mean_edge.data() : nullptr;
   workspace.search_stride = params.search_stride;
   if (params.search_stride > 1) workspace.search_phase = (workspace.search_phase + 1) % params.search_stride;
+  update_active_set(topology, workspace);
   Targets targets;
   if (rest && frames) {
     if (rest->umbrella.size() != vertex_count || rest->triangle_level.size() != topology.triangle_count) return -1.0f;
@@ -235,7 +287,7 @@ float fair_run(const FairingTopology& topology, const glm::vec3* skeletal, const
     if (params.intersection_flow)
       intersection_step(topology, grid, skeletal, radius, positions, intersect, params.semi_implicit, iteration == 0,
                         targets, workspace);
-    const float moved = largest_squared_motion(positions, workspace.iteration_start.data(), vertex_count);
+    const float moved = largest_squared_motion(positions, workspace.iteration_start.data(), workspace);
     residual = diagonal > 0.0f ? std::sqrt(moved) / diagonal : 0.0f;
   }
   return residual;

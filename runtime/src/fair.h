@@ -132,7 +132,12 @@ struct FairingWorkspace {
         next_minimiser(a),
         reference_bi(a),
         bi_reference(a),
-        hull_case(a) {}
+        hull_case(a),
+        fixed_mask(a),
+        active(a),
+        ring(a),
+        active_triangles(a),
+        ring_mark(a) {}
 
   uint32_t vertex_count = 0;
   uint32_t triangle_count = 0;
@@ -165,6 +170,16 @@ struct FairingWorkspace {
   Array<glm::vec3> bi_reference;          // U²(x) − reference_bi
   const float* rest_edge = nullptr;       // FairingRest::mean_edge of the current run, or null
   Array<uint8_t> hull_case;               // per triangle: ball_hull_distance's hint (kHullCase*)
+  // The run's active set (fair_run: update_active_set). Only free vertices move, and a free
+  // vertex's step reads U at its one-ring and E_T at its triangles, so each pass covers only
+  // what the free vertices need: `active` the free vertices, `ring` those and their one-rings
+  // (where U is needed), `active_triangles` the triangles with a free corner (F's terms), each
+  // ascending; the per-vertex scratch of fixed vertices stays 0. Rebuilt when the fixed
+  // vertices change (the handle driver's pinned region can change at every evaluation).
+  Array<uint8_t> fixed_mask;                       // vertex_count: is_fixed() of the lists' run; 2 = not built yet
+  Array<uint32_t> active, ring, active_triangles;  // vertex_count, vertex_count, triangle_count
+  uint32_t active_count = 0, ring_count = 0, active_triangle_count = 0;
+  Array<uint8_t> ring_mark;  // vertex_count: scratch of the rebuild
 };
 
 // The flows measured from the rest pose (a departure from the paper, DESIGN.md notes): on a

@@ -36,9 +36,9 @@ struct HullBlock {
 // The block's centroids and the differences ball_hull_distance takes (zeros where a centroid or
 // a ball centre is not finite: such a triangle is not usable).
 void gather_block(const FairingTopology& topo, const glm::vec3* skeletal, const float* radius, const glm::vec3* x,
-                  uint32_t first, uint32_t count, HullBlock& b) {
+                  const uint32_t* triangles, uint32_t count, HullBlock& b) {
   for (uint32_t i = 0; i < count; ++i) {
-    const uint32_t* corner = topo.triangle_indices.data() + 3 * size_t{first + i};
+    const uint32_t* corner = topo.triangle_indices.data() + 3 * size_t{triangles[i]};
     b.centroid[i] = (x[corner[0]] + x[corner[1]] + x[corner[2]]) / 3.0f;
     const glm::vec3 &s0 = skeletal[corner[0]], &s1 = skeletal[corner[1]], &s2 = skeletal[corner[2]];
     b.usable[i] = finite(b.centroid[i]) && finite(s0) && finite(s1) && finite(s2);
@@ -67,25 +67,25 @@ void interior_candidates(uint32_t count, HullBlock& b) {
                                 b.e2z[i], b.r0[i], b.d1[i], b.d2[i], b.value[i], b.nx[i], b.ny[i], b.nz[i]);
 }
 
-// Where a block's triangle forces go: E_T(C_j)·∇E_T(C_j) − (rest level), for triangle
-// first + i of the block.
+// Where a block's triangle forces go: E_T(C_j)·∇E_T(C_j) − (rest level), for the block's
+// triangle i (triangles[i]).
 struct BlockForces {
   const FairingTopology& topo;
   const glm::vec3* skeletal;
   const float* radius;
   const float* rest_level;
-  uint32_t first;
+  const uint32_t* triangles;
   const HullBlock& block;
   FairingWorkspace& ws;
 
   void store(uint32_t i, const HullDistance& e) const {
-    const uint32_t t = first + i;
+    const uint32_t t = triangles[i];
     const glm::vec3 force = (rest_level ? e.value - rest_level[t] : e.value) * e.gradient;
     ws.triangle_force[t] = finite(force) ? force : glm::vec3(0.0f);
   }
   // E_T by the boundary search (boundary_distance, with the triangle's hint).
   void boundary(uint32_t i) const {
-    const uint32_t t = first + i;
+    const uint32_t t = triangles[i];
     const uint32_t* corner = topo.triangle_indices.data() + 3 * size_t{t};
     const glm::vec3 c[3] = {skeletal[corner[0]], skeletal[corner[1]], skeletal[corner[2]]};
     const float r[3] = {radius[corner[0]], radius[corner[1]], radius[corner[2]]};
@@ -99,15 +99,15 @@ struct BlockForces {
 void hinted_forces(const BlockForces& forces, const uint32_t* hinted, uint32_t hinted_count) {
   const FairingTopology& topo = forces.topo;
   const FairingWorkspace& ws = forces.ws;
-  const uint32_t first = forces.first;
   uint32_t k = 0;
 #if defined(__SSE2__)
   for (; k + 4 <= hinted_count; k += 4) {
     HullLanes lanes;
     for (uint32_t lane = 0; lane < 4; ++lane) {
       const uint32_t i = hinted[k + lane];
-      const uint32_t* corner = topo.triangle_indices.data() + 3 * size_t{first + i};
-      const int which = ws.hull_case[first + i] - kHullCaseVertex;  // 0..2 a vertex, 3..5 an edge
+      const uint32_t t = forces.triangles[i];
+      const uint32_t* corner = topo.triangle_indices.data() + 3 * size_t{t};
+      const int which = ws.hull_case[t] - kHullCaseVertex;  // 0..2 a vertex, 3..5 an edge
       const uint32_t a = corner[which % 3], b = corner[(which + 1) % 3], c = corner[(which + 2) % 3];
       lanes.set(lane, forces.block.centroid[i], forces.skeletal[a], forces.skeletal[b], forces.skeletal[c],
                 forces.radius[a], forces.radius[b], forces.radius[c], which >= 3);
@@ -124,23 +124,23 @@ void hinted_forces(const BlockForces& forces, const uint32_t* hinted, uint32_t h
   for (; k < hinted_count; ++k) forces.boundary(hinted[k]);
 }
 
-// E_T(C_j)·∇E_T(C_j) − (rest level) for triangles [first, first + count), count ≤ kHullBlock:
-// the interior candidates of the whole block in one pass, then the hinted boundary candidates
-// four at a time, the rest one by one (boundary_distance). Same results as ball_hull_distance
-// per triangle.
+// E_T(C_j)·∇E_T(C_j) − (rest level) for the triangles triangles[0 .. count), count ≤
+// kHullBlock: the interior candidates of the whole block in one pass, then the hinted boundary
+// candidates four at a time, the rest one by one (boundary_distance). Same results as
+// ball_hull_distance per triangle, whichever triangles share its block.
 void triangle_forces(const FairingTopology& topo, const glm::vec3* skeletal, const float* radius, const glm::vec3* x,
-                     const float* rest_level, uint32_t first, uint32_t count, FairingWorkspace& ws) {
+                     const float* rest_level, const uint32_t* triangles, uint32_t count, FairingWorkspace& ws) {
   HullBlock block;
-  gather_block(topo, skeletal, radius, x, first, count, block);
+  gather_block(topo, skeletal, radius, x, triangles, count, block);
   interior_candidates(count, block);
   // E_T's value and gradient per triangle: the interior candidate where it holds; else, with
   // SSE2, the triangles whose hint names an edge or a vertex try it (hinted_forces), the rest
   // go through boundary_distance.
-  const BlockForces forces{topo, skeletal, radius, rest_level, first, block, ws};
+  const BlockForces forces{topo, skeletal, radius, rest_level, triangles, block, ws};
   uint32_t hinted[kHullBlock];
   uint32_t hinted_count = 0;
   for (uint32_t i = 0; i < count; ++i) {
-    const uint32_t t = first + i;
+    const uint32_t t = triangles[i];
     if (!block.usable[i]) {
       ws.triangle_force[t] = glm::vec3(0.0f);
       continue;
@@ -204,22 +204,21 @@ float rest_shape_weight(const float* radius, uint32_t v, float edge, const Targe
 
 }  // namespace
 
-// One step of flow (4).
+// One step of flow (4), on the run's active set: the free vertices move, from U at their
+// one-rings and F's terms at their triangles.
 void fold_step(const FairingTopology& topo, const glm::vec3* skeletal, const float* radius, glm::vec3* x, float step,
                bool semi_implicit, const Targets& targets, FairingWorkspace& ws) {
-  const uint32_t vertex_count = topo.vertex_count;
-  compute_umbrellas(topo, x, targets, ws);
+  const VertexSet free = free_vertices(ws);
+  compute_umbrellas(topo, x, targets, free, ring_vertices(ws), ws);
 
-  // E_T(C_j)·∇E_T(C_j) per mesh triangle j against its deformed skeletal triangle T_j.
-  for (uint32_t first = 0; first < topo.triangle_count; first += kHullBlock)
-    triangle_forces(topo, skeletal, radius, x, targets.triangle_level, first,
-                    std::min(kHullBlock, topo.triangle_count - first), ws);
+  // E_T(C_j)·∇E_T(C_j) per mesh triangle j with a free corner, against its deformed skeletal
+  // triangle T_j.
+  for (uint32_t first = 0; first < ws.active_triangle_count; first += kHullBlock)
+    triangle_forces(topo, skeletal, radius, x, targets.triangle_level, ws.active_triangles.data() + first,
+                    std::min(kHullBlock, ws.active_triangle_count - first), ws);
 
-  for (uint32_t v = 0; v < vertex_count; ++v) {
-    ws.displacement[v] = glm::vec3(0.0f);
-    ws.smoothing_weight[v] = 0.0f;
-    ws.force_direction[v] = glm::vec3(0.0f);
-    if (is_fixed(topo, ws, v)) continue;
+  for (uint32_t i = 0; i < free.count; ++i) {
+    const uint32_t v = free[i];
     const float edge = edge_scale(topo, x, ws, v);
     const float alpha = fold_alpha(topo, ws, v, edge);
     const glm::vec3 force = vertex_force(topo, ws, v);
@@ -244,7 +243,10 @@ void fold_step(const FairingTopology& topo, const glm::vec3* skeletal, const flo
     apply_displacements(topo, x, ws);  // Jacobi: all from one state
     return;
   }
-  for (uint32_t v = 0; v < vertex_count; ++v) ws.start_positions[v] = x[v] + ws.displacement[v];  // x − τF
+  for (uint32_t i = 0; i < free.count; ++i) {
+    const uint32_t v = free[i];
+    ws.start_positions[v] = x[v] + ws.displacement[v];  // x − τF
+  }
   implicit_update(topo, x, step, ws.tangential_weight.data(), targets, ws);
 }
 

@@ -284,7 +284,7 @@ FairingRest make_fairing_rest(const FairingTopology& topology, const glm::vec3* 
   const uint32_t n = topology.vertex_count;
   Array<glm::mat3> frames(n, glm::mat3(1.0f), CallbackAllocator<glm::mat3>(allocator));
   fairing_frames(topology, skeletal, positions, frames.data());
-  compute_umbrellas(topology, positions, Targets{}, ws);
+  compute_umbrellas(topology, positions, Targets{}, all_vertices(topology), all_vertices(topology), ws);
   rest.edge_2d.resize(topology.neighbours.size());
   for (uint32_t v = 0; v < n; ++v)
     for (uint32_t k = topology.neighbour_offsets[v]; k < topology.neighbour_offsets[v + 1]; ++k) {

@@ -58,6 +58,18 @@ inline bool is_fixed(const FairingTopology& topo, const FairingWorkspace& ws, ui
   return topo.fixed[v] || (ws.caller_fixed && ws.caller_fixed[v]);
 }
 
+// The vertices a pass covers: list[0 .. count), or 0 .. count − 1 when list is null (the whole
+// mesh).
+struct VertexSet {
+  const uint32_t* list = nullptr;
+  uint32_t count = 0;
+  uint32_t operator[](uint32_t i) const { return list ? list[i] : i; }
+};
+inline VertexSet all_vertices(const FairingTopology& topo) { return {nullptr, topo.vertex_count}; }
+// The run's free vertices, and those with their one-rings (FairingWorkspace: the active set).
+inline VertexSet free_vertices(const FairingWorkspace& ws) { return {ws.active.data(), ws.active_count}; }
+inline VertexSet ring_vertices(const FairingWorkspace& ws) { return {ws.ring.data(), ws.ring_count}; }
+
 // U(p) = mean of the one-ring − p; 0 for a vertex without neighbours.
 inline glm::vec3 umbrella_at(const FairingTopology& topo, const glm::vec3* x, uint32_t v) {
   const uint32_t begin = topo.neighbour_offsets[v], end = topo.neighbour_offsets[v + 1];
@@ -93,16 +105,18 @@ inline float edge_scale(const FairingTopology& topo, const glm::vec3* x, const F
 
 // ---- fair_operators.cpp: the umbrella passes and the two ways of stepping -----------------
 
-// umbrella_at of every vertex into `out` (not aliasing x), with umbrella_at's bits.
-void umbrella_pass(const FairingTopology& topo, const glm::vec3* x, glm::vec3* out);
+// umbrella_at of each vertex of `vertices` into `out` (not aliasing x), with umbrella_at's bits.
+void umbrella_pass(const FairingTopology& topo, const glm::vec3* x, glm::vec3* out, VertexSet vertices);
 
-// U and U² of x into ws.umbrella and ws.bi_umbrella, relative to the targets when there are
-// any (and U² relative to the smoothing reference's into ws.bi_reference).
-void compute_umbrellas(const FairingTopology& topo, const glm::vec3* x, const Targets& targets, FairingWorkspace& ws);
+// U of x at `ring` into ws.umbrella and U² at `vertices` into ws.bi_umbrella (`ring` holds
+// `vertices` and their one-rings), relative to the targets when there are any (and U²
+// relative to the smoothing reference's into ws.bi_reference).
+void compute_umbrellas(const FairingTopology& topo, const glm::vec3* x, const Targets& targets, VertexSet vertices,
+                       VertexSet ring, FairingWorkspace& ws);
 
 // Moves every free vertex by ws.displacement, each shortened to kMaxStepPerEdge of its mean
 // edge length measured before anything moves (so the result does not depend on vertex
-// order). A non-finite displacement moves nothing.
+// order). A non-finite displacement moves nothing. Reads the run's active set.
 void apply_displacements(const FairingTopology& topo, glm::vec3* x, FairingWorkspace& ws);
 
 // Semi-implicit step: solves x' + τ B_v U²(x') = rhs (rhs in ws.start_positions) in place,

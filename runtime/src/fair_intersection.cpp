@@ -389,9 +389,10 @@ void radical_plane_step(const FairingTopology& topo, const glm::vec3* skeletal, 
 
 // The tracked minimisers of this call (read from the old ones while the step ran) become the
 // current ones.
-void adopt_tracked_minimisers(uint32_t vertex_count, FairingWorkspace& ws) {
-  for (uint32_t v = 0; v < vertex_count; ++v)
-    if (ws.next_minimiser[v] != kNone) {
+void adopt_tracked_minimisers(FairingWorkspace& ws) {
+  const VertexSet free = free_vertices(ws);
+  for (uint32_t i = 0; i < free.count; ++i)
+    if (const uint32_t v = free[i]; ws.next_minimiser[v] != kNone) {
       ws.minimiser[v] = ws.next_minimiser[v];
       ws.next_minimiser[v] = kNone;
     }
@@ -400,7 +401,9 @@ void adopt_tracked_minimisers(uint32_t vertex_count, FairingWorkspace& ws) {
 // The explicit step's −WΔ²M, with U² relative to the reference or to rest as compute_umbrellas
 // gives it (the same bits), where W > 0: elsewhere the term is 0. Needs U of x in ws.umbrella.
 void add_explicit_smoothing(const FairingTopology& topo, float step, const Targets& targets, FairingWorkspace& ws) {
-  for (uint32_t v = 0; v < topo.vertex_count; ++v) {
+  const VertexSet free = free_vertices(ws);
+  for (uint32_t i = 0; i < free.count; ++i) {
+    const uint32_t v = free[i];
     if (!(ws.smoothing_weight[v] > 0.0f)) continue;
     glm::vec3 bi = umbrella_at(topo, ws.umbrella.data(), v);
     if (targets.reference_bi_umbrella)
@@ -413,14 +416,15 @@ void add_explicit_smoothing(const FairingTopology& topo, float step, const Targe
 
 }  // namespace
 
-// One step of flow (5).
+// One step of flow (5), on the run's active set (the free vertices move).
 void intersection_step(const FairingTopology& topo, const Grid& grid, const glm::vec3* skeletal, const float* radius,
                        glm::vec3* x, float step, bool semi_implicit, bool refresh_field, const Targets& targets,
                        FairingWorkspace& ws) {
-  const uint32_t vertex_count = topo.vertex_count;
+  const VertexSet free = free_vertices(ws);
   // No compute_umbrellas here: the semi-implicit solve evaluates U² itself, and the explicit
-  // step needs U² only where W > 0 (typically a minority of the vertices), from U of all.
-  if (!semi_implicit) umbrella_pass(topo, x, ws.umbrella.data());
+  // step needs U² only where W > 0 (typically a minority of the vertices), from U at their
+  // one-rings.
+  if (!semi_implicit) umbrella_pass(topo, x, ws.umbrella.data(), ring_vertices(ws));
 
   // f, its Gauss-Newton step G = f∇f / max(|∇f|², 4 d*²) with ∇f = 2(x − S*), and |f − g|.
   // Relative to rest, f is the minimum over the balls other than the vertex's own (the ball it
@@ -428,11 +432,12 @@ void intersection_step(const FairingTopology& topo, const Grid& grid, const glm:
   // is nearer.
   const bool relative = targets.rest_positions && targets.rest_skeletal;
   float largest_gap = 0.0f;
-  for (uint32_t v = 0; v < vertex_count; ++v) {
+  for (uint32_t i = 0; i < free.count; ++i) {
+    const uint32_t v = free[i];
     ws.displacement[v] = glm::vec3(0.0f);
     ws.smoothing_weight[v] = 0.0f;
     ws.force_direction[v] = glm::vec3(0.0f);
-    if (is_fixed(topo, ws, v) || !finite(x[v])) continue;
+    if (!finite(x[v])) continue;
     const FieldValue field = vertex_field(topo, grid, skeletal, radius, x, v, refresh_field, relative, ws);
     if (field.minimiser == kNone) continue;
     // g(x, S_v) of the vertex's own ball, where another ball is the minimiser (0 is unused).
@@ -453,10 +458,12 @@ void intersection_step(const FairingTopology& topo, const Grid& grid, const glm:
       largest_gap = std::max(largest_gap, ws.smoothing_weight[v]);
     }
   }
-  if (refresh_field && ws.search_stride > 1) adopt_tracked_minimisers(vertex_count, ws);
-  // W(M) = |f(M) − g(M, S)| / max_M |f − g|.
-  for (uint32_t v = 0; v < vertex_count; ++v)
-    ws.smoothing_weight[v] = largest_gap > 0.0f ? ws.smoothing_weight[v] / largest_gap : 0.0f;
+  if (refresh_field && ws.search_stride > 1) adopt_tracked_minimisers(ws);
+  // W(M) = |f(M) − g(M, S)| / max_M |f − g| (0 at the fixed vertices).
+  for (uint32_t i = 0; i < free.count; ++i) {
+    float& weight = ws.smoothing_weight[free[i]];
+    weight = largest_gap > 0.0f ? weight / largest_gap : 0.0f;
+  }
 
   if (!semi_implicit) {
     // (5): ∂M/∂t = −f∇f − WΔ²M.
@@ -464,7 +471,10 @@ void intersection_step(const FairingTopology& topo, const Grid& grid, const glm:
     apply_displacements(topo, x, ws);
     return;
   }
-  for (uint32_t v = 0; v < vertex_count; ++v) ws.start_positions[v] = x[v] + ws.displacement[v];  // x − τG
+  for (uint32_t i = 0; i < free.count; ++i) {
+    const uint32_t v = free[i];
+    ws.start_positions[v] = x[v] + ws.displacement[v];  // x − τG
+  }
   implicit_update(topo, x, step, nullptr, targets, ws);
 }
 

@@ -36,9 +36,10 @@ glm::vec3 solve_block(const glm::vec3& z, const glm::vec3& n, float c, float a, 
 // Gauss-Seidel sweeps for x' + τ B_v U²(x') = rhs (rhs in ws.start_positions), in place.
 void gauss_seidel(const FairingTopology& topo, glm::vec3* x, float step, const float* tangential_weights,
                   const Targets& targets, FairingWorkspace& ws) {
+  const VertexSet free = free_vertices(ws);
   for (int sweep = 0; sweep < kGaussSeidelSweeps; ++sweep) {
-    for (uint32_t v = 0; v < topo.vertex_count; ++v) {
-      if (is_fixed(topo, ws, v)) continue;
+    for (uint32_t i = 0; i < free.count; ++i) {
+      const uint32_t v = free[i];
       const float nu = topo.bi_umbrella_diagonal[v];
       glm::vec3 off_diagonal = bi_umbrella_at(topo, x, v) - nu * x[v];  // U²x − ν x_v
       if (targets.bi_umbrella) off_diagonal -= targets.bi_umbrella[v];  // relative to rest
@@ -58,10 +59,11 @@ void gauss_seidel(const FairingTopology& topo, glm::vec3* x, float step, const f
 // With SSE2 a vertex's x, y and z share one addition chain and one division (vec3_sse.h: the
 // scalar operations lane by lane in the same order, so umbrella_at's bits), where the compiled
 // scalar code divides twice.
-void umbrella_pass(const FairingTopology& topo, const glm::vec3* x, glm::vec3* out) {
+void umbrella_pass(const FairingTopology& topo, const glm::vec3* x, glm::vec3* out, VertexSet vertices) {
 #if defined(__SSE2__)
   const sse::Vec3Reader read(x, topo.vertex_count);
-  for (uint32_t v = 0; v < topo.vertex_count; ++v) {
+  for (uint32_t i = 0; i < vertices.count; ++i) {
+    const uint32_t v = vertices[i];
     const uint32_t begin = topo.neighbour_offsets[v], end = topo.neighbour_offsets[v + 1];
     if (begin == end) {
       out[v] = glm::vec3(0.0f);
@@ -72,25 +74,29 @@ void umbrella_pass(const FairingTopology& topo, const glm::vec3* x, glm::vec3* o
     sse::store3(out[v], _mm_sub_ps(_mm_div_ps(sum, _mm_set1_ps(static_cast<float>(end - begin))), read(v)));
   }
 #else
-  for (uint32_t v = 0; v < topo.vertex_count; ++v) out[v] = umbrella_at(topo, x, v);
+  for (uint32_t i = 0; i < vertices.count; ++i) out[vertices[i]] = umbrella_at(topo, x, vertices[i]);
 #endif
 }
 
-void compute_umbrellas(const FairingTopology& topo, const glm::vec3* x, const Targets& targets, FairingWorkspace& ws) {
-  umbrella_pass(topo, x, ws.umbrella.data());
-  umbrella_pass(topo, ws.umbrella.data(), ws.bi_umbrella.data());
+void compute_umbrellas(const FairingTopology& topo, const glm::vec3* x, const Targets& targets, VertexSet vertices,
+                       VertexSet ring, FairingWorkspace& ws) {
+  umbrella_pass(topo, x, ws.umbrella.data(), ring);
+  umbrella_pass(topo, ws.umbrella.data(), ws.bi_umbrella.data(), vertices);
   if (!targets.umbrella) return;
-  for (uint32_t v = 0; v < topo.vertex_count; ++v) {
-    ws.umbrella[v] -= targets.umbrella[v];
+  for (uint32_t i = 0; i < vertices.count; ++i) {
+    const uint32_t v = vertices[i];
     if (targets.reference_bi_umbrella) ws.bi_reference[v] = ws.bi_umbrella[v] - targets.reference_bi_umbrella[v];
     ws.bi_umbrella[v] -= targets.bi_umbrella[v];
   }
+  for (uint32_t i = 0; i < ring.count; ++i) ws.umbrella[ring[i]] -= targets.umbrella[ring[i]];
 }
 
 void apply_displacements(const FairingTopology& topo, glm::vec3* x, FairingWorkspace& ws) {
-  for (uint32_t v = 0; v < topo.vertex_count; ++v) {
+  const VertexSet free = free_vertices(ws);
+  for (uint32_t i = 0; i < free.count; ++i) {
+    const uint32_t v = free[i];
     glm::vec3& step = ws.displacement[v];
-    if (is_fixed(topo, ws, v) || !finite(step)) {
+    if (!finite(step)) {
       step = glm::vec3(0.0f);
       continue;
     }
@@ -98,15 +104,17 @@ void apply_displacements(const FairingTopology& topo, glm::vec3* x, FairingWorks
     const float limit = kMaxStepPerEdge * edge_scale(topo, x, ws, v);
     if (squared > limit * limit) step *= limit / std::sqrt(squared);
   }
-  for (uint32_t v = 0; v < topo.vertex_count; ++v) x[v] += ws.displacement[v];
+  for (uint32_t i = 0; i < free.count; ++i) x[free[i]] += ws.displacement[free[i]];
 }
 
 void implicit_update(const FairingTopology& topo, glm::vec3* x, float step, const float* tangential_weights,
                      const Targets& targets, FairingWorkspace& ws) {
-  // ws.umbrella is free now: keep x before the solve there.
-  for (uint32_t v = 0; v < topo.vertex_count; ++v) ws.umbrella[v] = x[v];
+  // ws.umbrella is free now: keep x before the solve there (the solve moves only free vertices).
+  const VertexSet free = free_vertices(ws);
+  for (uint32_t i = 0; i < free.count; ++i) ws.umbrella[free[i]] = x[free[i]];
   gauss_seidel(topo, x, step, tangential_weights, targets, ws);
-  for (uint32_t v = 0; v < topo.vertex_count; ++v) {
+  for (uint32_t i = 0; i < free.count; ++i) {
+    const uint32_t v = free[i];
     ws.displacement[v] = x[v] - ws.umbrella[v];
     x[v] = ws.umbrella[v];
   }
