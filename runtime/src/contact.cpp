@@ -190,7 +190,9 @@ class Grid {
   }
 
   // The intersecting pairs that the triangles around welded vertex v make now with the last
-  // gather()'s candidates. With `push`, also the push of v out of them: for each pair (s, t),
+  // gather()'s candidates, but for those that intersect at rest: the modeller's, which the pass
+  // leaves be (it neither counts them nor pushes out of them; counting them kept a vertex
+  // modelled into another part from staying in it). With `push`, also the push of v out of them: for each pair (s, t),
   // where v lies behind t's plane or less than the gap in front of it, half the way out to the
   // gap along t's normal (t's corners take the other half when they are pushed in turn), or the
   // whole way when none of t's corners may move (a rigid part).
@@ -215,7 +217,7 @@ class Grid {
     // and its push added. True when the count has passed stop_above.
     auto pair = [&](uint32_t s, size_t i) {
       const uint32_t t = ws_.candidates[i];
-      if (!meet(s, t)) return false;
+      if (!meet(s, t) || mesh_.intersects_at_rest(pair_key(s, t))) return false;
       ++count;
       if (push) add_push(v, t, *push);
       return count > stop_above;

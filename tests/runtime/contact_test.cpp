@@ -490,6 +490,31 @@ TEST_CASE("contact: pairs that intersect at rest are the modeller's and stay") {
   CHECK(std::memcmp(x.data(), scene.positions.data(), x.size() * sizeof(glm::vec3)) == 0);
 }
 
+// A vertex the pass moves for a new pair must not be pushed out of the pairs the model has at
+// rest, nor count them: the modeller's embedding stays. The tip, modelled 0.1 deep in the cube's
+// top face, swings out through the side face x = 1 (the top face's pairs are the rest's): the
+// pass clears the side's pairs and leaves the tip under the top face, where counting and
+// pushing out of the rest pairs too lifted it 0.2 above it.
+TEST_CASE("contact: a vertex modelled into a part is moved for its new pairs only") {
+  const Scene scene(0.9f);
+  std::vector<glm::vec3> x = scene.positions;
+  x[0] = glm::vec3(1.1f, 0.5f, 0.9f);
+  const ContactMesh mesh = build_contact_mesh(scene.positions.data(), uint32_t(scene.positions.size()),
+                                              scene.triangles.data(), scene.triangles.size() / 3, {});
+  REQUIRE(!mesh.rest_pairs.empty());
+  const size_t before = scene.pairs(x);
+  REQUIRE(before > mesh.rest_pairs.size());  // new pairs, with the side face
+  ContactWorkspace workspace = make_grid_workspace(mesh);
+  const ContactStats stats = resolve_contacts(mesh, 1.0f, x.data(), uint32_t(x.size()), workspace);
+  MESSAGE("pairs " << before << " -> " << scene.pairs(x) << " (" << mesh.rest_pairs.size()
+                   << " at rest), tip at z = " << x[0].z);
+  CHECK(stats.moved == 1);
+  CHECK(scene.pairs(x) <= mesh.rest_pairs.size());
+  CHECK(x[0].z > 0.9f);  // it moved,
+  CHECK(x[0].z < 1.0f);  // and stays under the face it was modelled into
+  for (size_t v = 1; v < x.size(); ++v) CHECK(std::memcmp(&x[v], &scene.positions[v], sizeof(glm::vec3)) == 0);
+}
+
 namespace {
 
 // The contact pass as the evaluation runs it inside the guard (api_evaluate.cpp ContactHook),
