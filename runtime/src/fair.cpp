@@ -197,8 +197,8 @@ fair_detail::Targets rest_targets(const FairingTopology& topology, const Fairing
 
 // The run's active set (FairingWorkspace: the free vertices, their one-rings and the triangles
 // with a free corner), rebuilt only when which vertices are fixed has changed since the last
-// run. A vertex that is fixed now gets its per-vertex scratch zeroed, since the steps write
-// only the free vertices'.
+// run; then the E_T hints start afresh (those of the triangles the passes skipped are stale). A
+// vertex that is fixed now gets its per-vertex scratch zeroed (nothing reads it; zero is tidy).
 void update_active_set(const FairingTopology& topo, FairingWorkspace& ws) {
   const uint32_t n = topo.vertex_count;
   bool changed = false;
@@ -208,7 +208,8 @@ void update_active_set(const FairingTopology& topo, FairingWorkspace& ws) {
     ws.fixed_mask[v] = fixed;
   }
   if (!changed) return;
-  std::fill(ws.ring_mark.begin(), ws.ring_mark.end(), uint8_t{0});
+  std::fill(ws.hull_case.begin(), ws.hull_case.end(), kHullCaseUnknown);
+  std::fill(ws.ring_mark.begin(), ws.ring_mark.end(), static_cast<uint8_t>(ws.whole_passes ? 1 : 0));
   ws.active_count = 0;
   for (uint32_t v = 0; v < n; ++v) {
     if (ws.fixed_mask[v]) {
@@ -227,7 +228,7 @@ void update_active_set(const FairingTopology& topo, FairingWorkspace& ws) {
   ws.active_triangle_count = 0;
   for (uint32_t t = 0; t < topo.triangle_count; ++t) {
     const uint32_t* corner = topo.triangle_indices.data() + 3 * size_t{t};
-    if (!ws.fixed_mask[corner[0]] || !ws.fixed_mask[corner[1]] || !ws.fixed_mask[corner[2]])
+    if (ws.whole_passes || !ws.fixed_mask[corner[0]] || !ws.fixed_mask[corner[1]] || !ws.fixed_mask[corner[2]])
       ws.active_triangles[ws.active_triangle_count++] = t;
   }
 }

@@ -174,12 +174,16 @@ struct FairingWorkspace {
   // vertex's step reads U at its one-ring and E_T at its triangles, so each pass covers only
   // what the free vertices need: `active` the free vertices, `ring` those and their one-rings
   // (where U is needed), `active_triangles` the triangles with a free corner (F's terms), each
-  // ascending; the per-vertex scratch of fixed vertices stays 0. Rebuilt when the fixed
-  // vertices change (the handle driver's pinned region can change at every evaluation).
+  // ascending; nothing reads the scratch of a fixed vertex. Rebuilt when the fixed vertices
+  // change (the handle driver's pinned region can change at every evaluation), which also
+  // clears the E_T hints (hull_case: those of triangles the passes skipped are stale).
   Array<uint8_t> fixed_mask;                       // vertex_count: is_fixed() of the lists' run; 2 = not built yet
   Array<uint32_t> active, ring, active_triangles;  // vertex_count, vertex_count, triangle_count
   uint32_t active_count = 0, ring_count = 0, active_triangle_count = 0;
   Array<uint8_t> ring_mark;  // vertex_count: scratch of the rebuild
+  // For tests: `ring` and `active_triangles` cover the whole mesh, as every pass did before the
+  // active set. The result must be the same bits.
+  bool whole_passes = false;
 };
 
 // The flows measured from the rest pose (a departure from the paper, DESIGN.md notes): on a
@@ -267,9 +271,11 @@ struct HullDistance {
 // `hint` (optional, one byte per triangle kept across calls): which candidate won last time
 // (kHullCase*). When the tangent-plane (interior) case does not hold, that edge or vertex is
 // tried before the full boundary search and accepted only if it satisfies the KKT conditions
-// of the convex minimisation, i.e. only if it is the minimum; otherwise the full search runs. The result is that of the full search either way (the same foot, computed with
-// the same arithmetic); the hint only saves time when the foot stays on the same edge or
-// vertex from call to call. Updated on return.
+// of the convex minimisation, i.e. only if it is the minimum; otherwise the full search runs.
+// Either way the result is the minimum, but reached through the hint it can differ from the
+// full search's in the last bits, so a run's bits depend on its hints (fair_stage clears them
+// at a fresh start, fair_run when the fixed vertices change); the hint saves time when the
+// foot stays on the same edge or vertex from call to call. Updated on return.
 constexpr uint8_t kHullCaseUnknown = 0;
 constexpr uint8_t kHullCaseInterior = 1;
 constexpr uint8_t kHullCaseVertex = 2;  // + i for ball i; kHullCaseVertex + 3 + i for edge (i, i+1)
