@@ -191,8 +191,8 @@ class Grid {
 
   // The intersecting pairs that the triangles around welded vertex v make now with the last
   // gather()'s candidates, but for those that intersect at rest: the modeller's, which the pass
-  // leaves be (it neither counts them nor pushes out of them; counting them kept a vertex
-  // modelled into another part from staying in it). With `push`, also the push of v out of them: for each pair (s, t),
+  // leaves be (it neither counts them nor pushes out of them; pushing out of them moved a vertex
+  // out of the part it was modelled into). With `push`, also the push of v out of them: for each pair (s, t),
   // where v lies behind t's plane or less than the gap in front of it, half the way out to the
   // gap along t's normal (t's corners take the other half when they are pushed in turn), or the
   // whole way when none of t's corners may move (a rigid part).

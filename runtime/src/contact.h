@@ -8,10 +8,11 @@
 // control mesh; docs/tuning.md). This pass therefore works on the welded dense output: it finds the intersecting
 // pairs of non-adjacent triangles and moves their vertices out of each other, one vertex at a
 // time, keeping a move only where the number of intersecting pairs around that vertex does not
-// grow (so it never adds a pair to the output but for the model's own: pairs that intersect at
-// rest, ContactMesh::rest_pairs, are not resolved, pushed out of or counted). It runs after the displacement, is not part of
-// the fairing's warm start (the next evaluation starts from the flows' result, not from this
-// pass's), and leaves the normals and tangents as the displacement computed them.
+// grow (pairs that intersect at rest, ContactMesh::rest_pairs, are not resolved, pushed out
+// of or counted; a move may trade one pair for another, which the LBS guard then judges). It
+// runs after the displacement, is not part of the fairing's warm start (the next evaluation
+// starts from the flows' result, not from this pass's), and leaves the normals and tangents as
+// the displacement computed them.
 #pragma once
 
 #include "memory.h"

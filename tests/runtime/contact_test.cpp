@@ -491,10 +491,11 @@ TEST_CASE("contact: pairs that intersect at rest are the modeller's and stay") {
 }
 
 // A vertex the pass moves for a new pair must not be pushed out of the pairs the model has at
-// rest, nor count them: the modeller's embedding stays. The tip, modelled 0.1 deep in the cube's
-// top face, swings out through the side face x = 1 (the top face's pairs are the rest's): the
-// pass clears the side's pairs and leaves the tip under the top face, where counting and
-// pushing out of the rest pairs too lifted it 0.2 above it.
+// rest. The tip, modelled 0.1 deep in the cube's top face, swings out through the side face
+// x = 1 (the top face's pairs are the rest's): the pass clears the side's pairs with a push
+// along the side's normal and the tip stays below the top face's plane, where pushing out of
+// the rest pairs too lifted it 0.2 above it. (Leaving the rest pairs out of the counts as well
+// is measured on the corpus, docs/tuning.md; this scene does not tell the counts apart.)
 TEST_CASE("contact: a vertex modelled into a part is moved for its new pairs only") {
   const Scene scene(0.9f);
   std::vector<glm::vec3> x = scene.positions;

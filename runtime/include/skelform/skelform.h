@@ -282,7 +282,8 @@ SF_API sf_result sf_instance_set_handle_targets(sf_instance* instance, const flo
  * driver): the remaining self-intersections are found on it (welded by rest position) and the
  * vertices skelform may move (under joint matrices: every copy's skelform weight at least
  * 1e-6; under handles: all) moved out of each other, each move kept only where the number of
- * intersecting triangle pairs around the vertex does not grow. Under joint matrices it runs
+ * intersecting triangle pairs around the vertex does not grow (pairs that intersect at rest,
+ * parts modelled into each other, are left as they are and not counted). Under joint matrices it runs
  * inside the guard against LBS (sf_instance_evaluate), on the intersecting pairs the guard's
  * first search finds anyway, so it costs only its moves; under handles, where there is no
  * guard, it runs its own broad phase over every dense triangle. Its work is bounded, linear in
