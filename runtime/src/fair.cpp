@@ -197,8 +197,8 @@ fair_detail::Targets rest_targets(const FairingTopology& topology, const Fairing
 
 // The run's active set (FairingWorkspace: the free vertices, their one-rings and the triangles
 // with a free corner), rebuilt only when which vertices are fixed has changed since the last
-// run; then the E_T hints start afresh (those of the triangles the passes skipped are stale). A
-// vertex that is fixed now gets its per-vertex scratch zeroed (nothing reads it; zero is tidy).
+// run; then the E_T hints start afresh (those of the triangles the passes skipped are stale).
+// Nothing reads a fixed vertex's per-vertex scratch.
 void update_active_set(const FairingTopology& topo, FairingWorkspace& ws) {
   const uint32_t n = topo.vertex_count;
   bool changed = false;
@@ -212,11 +212,7 @@ void update_active_set(const FairingTopology& topo, FairingWorkspace& ws) {
   std::fill(ws.ring_mark.begin(), ws.ring_mark.end(), static_cast<uint8_t>(ws.whole_passes ? 1 : 0));
   ws.active_count = 0;
   for (uint32_t v = 0; v < n; ++v) {
-    if (ws.fixed_mask[v]) {
-      ws.displacement[v] = ws.force_direction[v] = glm::vec3(0.0f);
-      ws.smoothing_weight[v] = ws.tangential_weight[v] = 0.0f;
-      continue;
-    }
+    if (ws.fixed_mask[v]) continue;
     ws.active[ws.active_count++] = v;
     ws.ring_mark[v] = 1;
     for (uint32_t k = topo.neighbour_offsets[v]; k < topo.neighbour_offsets[v + 1]; ++k)
@@ -237,8 +233,9 @@ void update_active_set(const FairingTopology& topo, FairingWorkspace& ws) {
 // fixed ones do not move): one square root at the end.
 float largest_squared_motion(const glm::vec3* positions, const glm::vec3* start, const FairingWorkspace& ws) {
   float moved = 0.0f;
-  for (uint32_t i = 0; i < ws.active_count; ++i) {
-    const uint32_t v = ws.active[i];
+  const fair_detail::VertexSet free = fair_detail::free_vertices(ws);
+  for (uint32_t i = 0; i < free.count; ++i) {
+    const uint32_t v = free[i];
     const glm::vec3 d = positions[v] - start[v];
     const float squared = glm::dot(d, d);
     if (std::isfinite(squared)) moved = std::max(moved, squared);
