@@ -192,10 +192,10 @@ class Grid {
   // The intersecting pairs that the triangles around welded vertex v make now with the last
   // gather()'s candidates, but for those that intersect at rest: the modeller's, which the pass
   // leaves be (it neither counts them nor pushes out of them; pushing out of them moved a vertex
-  // out of the part it was modelled into). With `push`, also the push of v out of them: for each pair (s, t),
-  // where v lies behind t's plane or less than the gap in front of it, half the way out to the
-  // gap along t's normal (t's corners take the other half when they are pushed in turn), or the
-  // whole way when none of t's corners may move (a rigid part).
+  // out of the part it was modelled into). With `push`, also the push of v out of them: for
+  // each pair (s, t), where v lies behind t's plane or less than the gap in front of it, half
+  // the way out to the gap along t's normal (t's corners take the other half when they are
+  // pushed in turn), or the whole way when none of t's corners may move (a rigid part).
   // Like gather(), each triangle it looks at spends one of ws.budget, and a spent budget ends it.
   // A candidate's box is the one gather() stored: only v moves until the next gather, and a
   // triangle around v (whose stored box may be stale) shares v with every triangle of its

@@ -283,12 +283,12 @@ SF_API sf_result sf_instance_set_handle_targets(sf_instance* instance, const flo
  * vertices skelform may move (under joint matrices: every copy's skelform weight at least
  * 1e-6; under handles: all) moved out of each other, each move kept only where the number of
  * intersecting triangle pairs around the vertex does not grow (pairs that intersect at rest,
- * parts modelled into each other, are left as they are and not counted). Under joint matrices it runs
- * inside the guard against LBS (sf_instance_evaluate), on the intersecting pairs the guard's
- * first search finds anyway, so it costs only its moves; under handles, where there is no
- * guard, it runs its own broad phase over every dense triangle. Its work is bounded, linear in
- * the triangles, and a surface tangled over itself beyond that bound is left as skelform made
- * it (the guards still apply). It never feeds the fairing's warm start. Turning it off frees
+ * parts modelled into each other, are left as they are and not counted). Under joint
+ * matrices it runs inside the guard against LBS (sf_instance_evaluate), on the intersecting
+ * pairs the guard's first search finds anyway, so it costs only its moves; under handles,
+ * where there is no guard, it runs its own broad phase over every dense triangle. Its work
+ * is bounded, linear in the triangles, and a surface tangled over itself beyond that bound is
+ * left as skelform made it (the guards still apply). It never feeds the fairing's warm start. Turning it off frees
  * the pass's scratch; turning it on again allocates it. Normals and tangents are left as the
  * displacement computed them. `enabled` is 0 or 1. */
 SF_API sf_result sf_instance_set_contacts(sf_instance* instance, uint32_t enabled);
