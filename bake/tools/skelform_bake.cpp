@@ -54,7 +54,8 @@ const char* const kUsage =
     "\n"
     "Options:\n"
     "  -o, --output FILE           output file (required; never the input file)\n"
-    "  --target-triangles N        control-mesh triangles (default 4000; smaller meshes are kept)\n"
+    "  --target-triangles N        control-mesh triangles (default %TARGET%; meshes with at most\n"
+    "                              twice as many are kept whole)\n"
     "  --level K                   Loop subdivision level (default: 4^K x control ~ input)\n"
     "  --tangent-flow-steps N      bilaplacian tangent flow steps before extraction (default 100)\n"
     "  --voronoi-points FILE       skeleton: also write the kept inner Voronoi vertices as points\n"
@@ -85,7 +86,12 @@ std::string usage() {
       " vertices: the welded input of the skeleton\n"
       "                    command; the control mesh of a bake (lower --target-triangles)\n"
       "\n";
-  return kUsage + limits + skelform::cli::kExitCodeHelp;
+  // The options' defaults come from BakeOptions, the one place they are set.
+  std::string text = kUsage;
+  const std::string placeholder = "%TARGET%";
+  text.replace(text.find(placeholder), placeholder.size(),
+               std::to_string(skelform::bake::BakeOptions{}.target_triangles));
+  return text + limits + skelform::cli::kExitCodeHelp;
 }
 
 struct Arguments {
@@ -94,7 +100,7 @@ struct Arguments {
   std::string output;
   std::string voronoi_points;
   int tangent_flow_steps = 100;
-  int target_triangles = 4000;
+  int target_triangles = static_cast<int>(skelform::bake::BakeOptions{}.target_triangles);
   int level = -1;
   bool all_meshes = false;
   bool verbose = false;

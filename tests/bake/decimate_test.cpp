@@ -2,6 +2,7 @@
 #include "mesh_checks.h"
 #include "skelform/bake/decimate.h"
 #include "skelform/bake/procedural.h"
+#include "skelform/bake/subdivision.h"
 
 #include <doctest/doctest.h>
 
@@ -34,6 +35,24 @@ TEST_CASE("a mesh already near the target is only compacted") {
   CHECK_FALSE(control.decimated);
   CHECK(control.mesh.triangles.size() == mesh.triangles.size());
   CHECK(control.mesh.positions.size() == mesh.positions.size() - 1);
+}
+
+// decimate.h: a control mesh at the target is bound at Loop level 0 unless the input has more
+// than twice its triangles (choose_subdivision_level), so only those inputs are decimated, and
+// their control mesh is then refined at least once.
+TEST_CASE("a mesh up to twice the target is kept whole; beyond it, decimated and refined") {
+  const TriangleMesh dense = make_icosphere(1.0, 4);  // 5,120 triangles
+  const size_t n = dense.triangles.size();
+  const DecimatedMesh kept = decimate(dense, n / 2);
+  CHECK_FALSE(kept.decimated);
+  CHECK(kept.mesh.triangles.size() == n);
+  for (const size_t target : {n / 2 - 1, n / 3, n / 8}) {
+    CAPTURE(target);
+    const DecimatedMesh control = decimate(dense, target);
+    CHECK(control.decimated);
+    CHECK(control.mesh.triangles.size() <= target);
+    CHECK(choose_subdivision_level(control.mesh.triangles.size(), n) >= 1);
+  }
 }
 
 TEST_CASE("open borders stay where they are") {

@@ -11,9 +11,12 @@
 namespace skelform::bake {
 
 struct BakeOptions {
-  size_t target_triangles = 4000;  // control-mesh size (the paper used 2K-6K)
-  int subdivision_level = -1;      // Loop level k; -1 chooses it so 4^k·control ≈ dense
-  int tangent_flow_steps = 100;    // bilaplacian tangent flow on the control mesh
+  // Control-mesh size: meshes with more than twice as many triangles are decimated to it
+  // (decimate.h). The paper used 2K-6K; docs/tuning.md "Control-mesh size" has the corpus
+  // measured at 1K-4K.
+  size_t target_triangles = 2000;
+  int subdivision_level = -1;    // Loop level k; -1 chooses it so 4^k·control ≈ dense
+  int tangent_flow_steps = 100;  // bilaplacian tangent flow on the control mesh
   // Called at the start of each stage of each deformable (stage name, deformable index,
   // deformable count); may be empty. Runs on the calling thread.
   std::function<void(const char* stage, size_t deformable, size_t count)> progress;

@@ -17,9 +17,11 @@ struct DecimatedMesh {
 };
 
 // Decimates `mesh` towards `target_triangles` with meshoptimizer, open borders locked so
-// they stay where they are. Meshes with at most target_triangles · 1.25 triangles are only
-// compacted (no decimation): DSS gains nothing from a control mesh nearly as dense as the
-// input. Deterministic.
+// they stay where they are. Meshes with at most 2 · target_triangles triangles are only
+// compacted (no decimation): decimated to the target, they would be bound at Loop level 0
+// (choose_subdivision_level: 4^k · control nearest the input in log scale), their dense
+// vertices displaced off a coarser faceted surface that the fairing moves but does not fit.
+// Above that, a control mesh decimated to the target is refined at least once. Deterministic.
 DecimatedMesh decimate(const TriangleMesh& mesh, size_t target_triangles);
 
 }  // namespace skelform::bake
