@@ -31,7 +31,7 @@ DecimatedMesh decimate(const TriangleMesh& mesh, size_t target_triangles) {
   std::vector<uint32_t> indices;
   indices.reserve(mesh.triangles.size() * 3);
   for (const Triangle& t : mesh.triangles) indices.insert(indices.end(), t.begin(), t.end());
-  if (target_triangles == 0 || mesh.triangles.size() <= 2 * target_triangles) return compact(mesh, indices);
+  if (target_triangles == 0 || (mesh.triangles.size() + 1) / 2 <= target_triangles) return compact(mesh, indices);
 
   // meshoptimizer works on float positions; the error it reports is relative to the mesh
   // extent. A generous error bound lets the triangle count, not the error, stop it (the

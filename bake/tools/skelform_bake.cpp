@@ -86,11 +86,11 @@ std::string usage() {
       " vertices: the welded input of the skeleton\n"
       "                    command; the control mesh of a bake (lower --target-triangles)\n"
       "\n";
-  // The options' defaults come from BakeOptions, the one place they are set.
+  // The control mesh's default comes from BakeOptions, where the library's is set.
   std::string text = kUsage;
   const std::string placeholder = "%TARGET%";
-  text.replace(text.find(placeholder), placeholder.size(),
-               std::to_string(skelform::bake::BakeOptions{}.target_triangles));
+  if (const size_t at = text.find(placeholder); at != std::string::npos)
+    text.replace(at, placeholder.size(), std::to_string(skelform::bake::BakeOptions{}.target_triangles));
   return text + limits + skelform::cli::kExitCodeHelp;
 }
 

@@ -20,6 +20,12 @@ expect() {
   [ "$code" -eq 0 ] || [ "$(wc -l <"$work/stderr")" -le 2 ] || fail "error output is not one line: $(cat "$work/stderr")"
 }
 
+# --help states the defaults the baker uses (BakeOptions), with no placeholder left.
+"$bake" --help >"$work/help" 2>&1 || fail "skelform-bake --help failed"
+grep -q -- "--target-triangles N        control-mesh triangles (default 2000;" "$work/help" ||
+  fail "--help does not give the control mesh's default: $(grep -- --target-triangles "$work/help")"
+grep -q "%" "$work/help" && fail "--help has a placeholder left: $(grep "%" "$work/help")"
+
 # Bad command lines and bad input files: a message, the documented exit code, no output.
 expect 1 "$work/x.glb" -- --no-such-flag
 expect 1 "$work/x.glb" -- "$work/missing.glb"

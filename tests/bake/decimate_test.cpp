@@ -46,6 +46,7 @@ TEST_CASE("a mesh up to twice the target is kept whole; beyond it, decimated and
   const DecimatedMesh kept = decimate(dense, n / 2);
   CHECK_FALSE(kept.decimated);
   CHECK(kept.mesh.triangles.size() == n);
+  CHECK(choose_subdivision_level(n / 2, n) == 0);  // why: decimated to n / 2, it would stay at level 0
   for (const size_t target : {n / 2 - 1, n / 3, n / 8}) {
     CAPTURE(target);
     const DecimatedMesh control = decimate(dense, target);

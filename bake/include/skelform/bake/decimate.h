@@ -21,7 +21,8 @@ struct DecimatedMesh {
 // compacted (no decimation): decimated to the target, they would be bound at Loop level 0
 // (choose_subdivision_level: 4^k · control nearest the input in log scale), their dense
 // vertices displaced off a coarser faceted surface that the fairing moves but does not fit.
-// Above that, a control mesh decimated to the target is refined at least once. Deterministic.
+// Above that, a control mesh decimated to the target (meshoptimizer may stop above it) is
+// refined at least once. Deterministic.
 DecimatedMesh decimate(const TriangleMesh& mesh, size_t target_triangles);
 
 }  // namespace skelform::bake
