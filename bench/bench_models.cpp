@@ -20,12 +20,18 @@ namespace skelform::bench {
 namespace {
 
 // A cached file is reused only if it is newer than this executable (a rebuilt baker re-bakes).
-bool fresh(const std::filesystem::path& path) {
+bool fresh(const std::filesystem::path& path, const std::filesystem::path& source = {}) {
   std::error_code error;
   if (!std::filesystem::exists(path, error)) return false;
+  const auto written = std::filesystem::last_write_time(path, error);
+  if (error) return false;
+  if (!source.empty()) {
+    const auto source_time = std::filesystem::last_write_time(source, error);
+    if (!error && source_time > written) return false;  // the source changed since
+  }
   const auto executable = std::filesystem::last_write_time("/proc/self/exe", error);
   if (error) return true;
-  return std::filesystem::last_write_time(path, error) >= executable && !error;
+  return written >= executable;
 }
 
 template <typename T>
@@ -173,7 +179,7 @@ std::filesystem::path cesium_man_baked(int levels) {
 
 std::filesystem::path baked_file(const std::filesystem::path& source, const std::string& cache_name) {
   const std::filesystem::path path = cache_dir() / (cache_name + ".skf.glb");
-  if (!fresh(path)) {
+  if (!fresh(path, source)) {
     const skelform::bake::InputMesh input = skelform::bake::load_mesh(source.string());
     const skelform::bake::BakeResult result = skelform::bake::bake_model(input);
     skelform::bake::write_baked_gltf(source.string(), result.deformables, path.string());

@@ -39,7 +39,7 @@ std::filesystem::path cesium_man_subdivided(int levels);
 std::filesystem::path cesium_man_baked(int levels);
 
 // `source` baked with skelform-bake's defaults, cached as `cache_name`.skf.glb; regenerated
-// when missing or older than the running executable.
+// when missing or older than the running executable or than `source`.
 std::filesystem::path baked_file(const std::filesystem::path& source, const std::string& cache_name);
 
 }  // namespace skelform::bench

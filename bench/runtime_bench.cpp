@@ -27,9 +27,11 @@
 //                                               each on its own pose, over every core: wall ms
 //                                               of a whole frame, skelform and lbs_optimised
 //   skelform-bench --frames MESH N              N evaluations of skelform on MESH (CesiumMan,
-//                                               CesiumMan_loop1, CesiumMan_loop2, Horse), untimed:
-//                                               for a profiler (bench/instructions.sh); 0 = load
-//                                               and set up only
+//                                               CesiumMan_loop1, CesiumMan_loop2, Horse, or the
+//                                               path of a skinned .glb/.gltf with an animation,
+//                                               baked with the defaults, its first animation
+//                                               played), untimed: for a profiler
+//                                               (bench/instructions.sh); 0 = load and set up only
 //   skelform-bench --markdown [--runs N]        the README's speed table (CPU time, the median
 //                                               of N runs, ratios against lbs_optimised)
 //   skelform-bench --json [--smoke] [--cpu] [--runs N]  one JSON line per mesh:
@@ -69,6 +71,7 @@
 #include <mutex>
 #include <exception>
 #include <filesystem>
+#include <functional>
 #include <vector>
 
 namespace {
@@ -615,14 +618,28 @@ int run_frames(const std::string& mesh, long frames) {
   for (const MeshCase& mesh_case : kMeshes)
     if (mesh == mesh_case.name) chosen = &mesh_case;
   if (mesh == kCrowdMesh.name) chosen = &kCrowdMesh;
+  // Any other skinned file, by its path: cached under its stem and a hash of its absolute path
+  // (two files may share a stem). The data directory joined with an absolute path is that path.
+  static std::string file, cache_name;
+  static MeshCase file_case{};
+  std::error_code error;
+  if (!chosen && std::filesystem::is_regular_file(mesh, error)) {
+    file = std::filesystem::absolute(mesh).lexically_normal().string();
+    char hash[32];
+    std::snprintf(hash, sizeof(hash), "%016zx", std::hash<std::string>{}(file));
+    cache_name = "file_" + std::filesystem::path(file).stem().string() + "_" + hash;
+    file_case = MeshCase{cache_name.c_str(), 0, file.c_str(), ""};
+    chosen = &file_case;
+  }
   if (!chosen) {
     std::fprintf(stderr,
                  "skelform-bench: error: --frames: unknown mesh %s (CesiumMan, CesiumMan_loop1, "
-                 "CesiumMan_loop2, Horse)\n",
+                 "CesiumMan_loop2, Horse, or the path of a skinned glTF file)\n",
                  mesh.c_str());
     return 1;
   }
-  if (const std::string missing = missing_data(chosen); !missing.empty()) {
+  // (A file given by its path needs no shared data.)
+  if (const std::string missing = chosen == &file_case ? std::string() : missing_data(chosen); !missing.empty()) {
     std::fprintf(stderr, "skelform-bench: skipped: %s\n", missing.c_str());
     return 0;
   }
