@@ -59,8 +59,8 @@ void size_control_buffers(sf_instance& instance, const Deformable& d, const Allo
 // The buffers of the refined and dense stages: refinement, the output and the scratch of
 // skelform's result, and (skinned deformables) the LBS result and the guard's workspace.
 void size_dense_buffers(sf_instance& instance, const Deformable& d, const AllocatorRef& allocator) {
-  instance.refined_positions.resize(d.refined_vertex_count + kVec3ReadPadding);
-  instance.refined_normals.resize(d.refined_vertex_count + kVec3ReadPadding);
+  instance.refined_positions.resize(d.named_refined_count + kVec3ReadPadding);  // the only ones read
+  instance.refined_normals.resize(d.named_refined_count + kVec3ReadPadding);
   instance.dense_positions.resize(d.vertex_count);
   instance.dense_normals.resize(d.vertex_count);
   bool any_tangents = false;

@@ -120,13 +120,17 @@ struct Deformable {
   // renumber_refined_vertices); the numbering is internal, the results are the baked ones.
   uint32_t subdivision_level = 0;
   uint32_t refined_vertex_count = 0;
+  // The refined vertices some dense vertex's bound triangle names: after the renumbering, the
+  // first named_refined_count. Only those are read (displace.cpp), so only those are refined,
+  // grouped and kept per instance; the rest of the refined mesh only carries its triangles.
+  uint32_t named_refined_count = 0;
   // The stencils as loaded (CSR): read while the asset loads, then released (empty once
   // sf_asset_load returns); the evaluation reads the grouped copy below.
   Array<uint32_t> stencil_offsets;  // refined_vertex_count + 1
   Array<uint32_t> stencil_indices;
   Array<float> stencil_weights;
-  // The same stencils grouped for refine_surface (asset_derive.cpp group_stencils): rows of
-  // equal length, kStencilLanes per group, groups in order of length. Group g has
+  // The named rows of the same stencils grouped for refine_surface (asset_derive.cpp
+  // group_stencils): rows of equal length, kStencilLanes per group, groups in order of length. Group g has
   // stencil_group_lengths[g] steps; step s holds entry s of each of its rows, lane by lane
   // (kStencilLanes indices and weights), so a group sums its rows side by side without a
   // data-dependent loop end. The last group of a length may repeat its last row to fill its

@@ -30,8 +30,10 @@ namespace skelform::runtime {
 //  - Its normal: the same sum over the control mesh's area-weighted normal sums (computed
 //    into `control_normal_sums`, control_vertex_count entries of scratch), normalised as the
 //    rows are stored (dss::normalise_or_zero's bits: zero where the sum vanishes).
-// The baker's bits (bake/src/subdivision.cpp apply_stencils, refined_normals). `refined` and
-// `refined_normals` hold refined_vertex_count entries; no two buffers may alias. `control` and
+// The baker's bits (bake/src/subdivision.cpp apply_stencils, refined_normals), for the named
+// refined vertices (Deformable::named_refined_count, the first ones), the only ones computed:
+// the others are left as they are. `refined` and `refined_normals` hold named_refined_count
+// entries; no two buffers may alias. `control` and
 // `control_normal_sums` are read a whole 16-byte vector at a time (vec3_sse.h
 // PaddedVec3Reader): each holds kVec3ReadPadding (memory.h) readable vectors past its
 // control_vertex_count positions.

@@ -20,6 +20,7 @@
 #include <glm/geometric.hpp>
 #include <nlohmann/json.hpp>
 
+#include <algorithm>
 #include <atomic>
 #include <cmath>
 #include <cstdint>
@@ -261,8 +262,18 @@ TEST_SUITE("asset") {
   // the sums normalised.
   void refine_like_the_baker(const skelform::runtime::Deformable& d, std::vector<glm::vec3>& refined,
                              std::vector<glm::vec3>& normals) {
-    refined.assign(d.refined_vertex_count, glm::vec3(0.0f));
-    normals.assign(d.refined_vertex_count, glm::vec3(0.0f));
+    // Only the named refined vertices are refined (asset.h named_refined_count): every dense
+    // vertex's bound triangle names only those, and the grouped rows are exactly those.
+    REQUIRE(d.named_refined_count <= d.refined_vertex_count);
+    for (const uint32_t corner : d.binding_corners) REQUIRE(corner < d.named_refined_count);
+    std::vector<int> grouped(d.named_refined_count, 0);
+    for (const uint32_t row : d.stencil_group_rows) {
+      REQUIRE(row < d.named_refined_count);
+      grouped[row] = 1;
+    }
+    CHECK(std::count(grouped.begin(), grouped.end(), 1) == std::ptrdiff_t(d.named_refined_count));
+    refined.assign(d.named_refined_count, glm::vec3(0.0f));
+    normals.assign(d.named_refined_count, glm::vec3(0.0f));
     skelform::runtime::refine_rest_surface(d, refined.data(), normals.data());
     // The runtime's pass (grouped stencils, SSE2, one walk for both) rearranges the baker's
     // arithmetic (dss_frame.h, the stored stencils row by row) for speed: same bits.
@@ -273,7 +284,7 @@ TEST_SUITE("asset") {
                                       baker_sums.data());
     // Row by row, scalar, from the grouped copy (the loader keeps only that one): each row's
     // entries in stencil order.
-    std::vector<glm::vec3> baker_positions(d.refined_vertex_count), baker_normals(d.refined_vertex_count);
+    std::vector<glm::vec3> baker_positions(d.named_refined_count), baker_normals(d.named_refined_count);
     const uint32_t lanes = skelform::runtime::kStencilLanes;
     size_t entry = 0;
     for (size_t g = 0; g < d.stencil_group_lengths.size(); ++g) {
@@ -327,7 +338,8 @@ TEST_SUITE("asset") {
       worst = std::max(worst, glm::length(p - d.rest_positions[v]));
     }
     MESSAGE("level-2 capsule: " << d.control_vertex_count << " control, " << d.refined_vertex_count
-                                << " refined vertices; rest error " << worst / glm::length(high - low)
+                                << " refined vertices (" << d.named_refined_count
+                                << " named by the binding); rest error " << worst / glm::length(high - low)
                                 << " of the diagonal");
     CHECK(worst <= 1e-5f * glm::length(high - low));
   }
