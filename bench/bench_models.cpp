@@ -19,7 +19,8 @@ namespace skelform::bench {
 
 namespace {
 
-// A cached file is reused only if it is newer than this executable (a rebuilt baker re-bakes).
+// A cached file is reused only if it is newer than this executable (a rebuilt baker re-bakes)
+// and than `source`, when given (an edited input re-bakes).
 bool fresh(const std::filesystem::path& path, const std::filesystem::path& source = {}) {
   std::error_code error;
   if (!std::filesystem::exists(path, error)) return false;

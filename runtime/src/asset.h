@@ -130,12 +130,12 @@ struct Deformable {
   Array<uint32_t> stencil_indices;
   Array<float> stencil_weights;
   // The named rows of the same stencils grouped for refine_surface (asset_derive.cpp
-  // group_stencils): rows of equal length, kStencilLanes per group, groups in order of length. Group g has
-  // stencil_group_lengths[g] steps; step s holds entry s of each of its rows, lane by lane
-  // (kStencilLanes indices and weights), so a group sums its rows side by side without a
-  // data-dependent loop end. The last group of a length may repeat its last row to fill its
-  // lanes (the row is then computed twice, to the same bits). Costs what the CSR did plus
-  // one row per group (stencil_group_rows) and one length per group.
+  // group_stencils): rows of equal length, kStencilLanes per group, groups in order of length.
+  // Group g has stencil_group_lengths[g] steps; step s holds entry s of each of its rows, lane by
+  // lane (kStencilLanes indices and weights), so a group sums its rows side by side without a
+  // data-dependent loop end. The last group of a length may repeat its last row to fill its lanes
+  // (the row is then computed twice, to the same bits). Costs what the CSR did plus one row per
+  // group (stencil_group_rows) and one length per group.
   Array<uint32_t> stencil_group_rows;     // kStencilLanes refined vertices per group
   Array<uint32_t> stencil_group_lengths;  // entries per row, one per group
   Array<uint32_t> stencil_group_indices;  // control vertices, kStencilLanes per step

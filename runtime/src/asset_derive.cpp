@@ -20,14 +20,14 @@
 namespace skelform::runtime::loader {
 namespace {
 
-// Renumbers the refined vertices in the order the dense vertices first name them as corners
-// of their bound triangles (then the unnamed ones, in baked order; Deformable::
+// Renumbers the refined vertices in the order the dense vertices first name them as corners of
+// their bound triangles (then the unnamed ones, in baked order; Deformable::
 // named_refined_count counts the named): the per-frame DSS loop (displace.cpp) walks the dense
 // vertices in order, and in the baked numbering their corners lie all over the refined arrays
-// (several cache lines per dense vertex). A pure renaming:
-// stencil rows move with their vertex, refined triangles keep their order and their corners'
-// roles, so every refined position and normal is computed with the same operations in the
-// same order, and the evaluation gives the same bits.
+// (several cache lines per dense vertex). A pure renaming: stencil rows move with their vertex,
+// refined triangles keep their order and their corners' roles, so every refined position and
+// normal is computed with the same operations in the same order, and the evaluation gives the
+// same bits.
 void renumber_refined_vertices(Deformable& deformable) {
   const uint32_t count = deformable.refined_vertex_count;
   constexpr uint32_t kUnnamed = std::numeric_limits<uint32_t>::max();

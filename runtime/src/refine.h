@@ -33,10 +33,9 @@ namespace skelform::runtime {
 // The baker's bits (bake/src/subdivision.cpp apply_stencils, refined_normals), for the named
 // refined vertices (Deformable::named_refined_count, the first ones), the only ones computed:
 // the others are left as they are. `refined` and `refined_normals` hold named_refined_count
-// entries; no two buffers may alias. `control` and
-// `control_normal_sums` are read a whole 16-byte vector at a time (vec3_sse.h
-// PaddedVec3Reader): each holds kVec3ReadPadding (memory.h) readable vectors past its
-// control_vertex_count positions.
+// entries; no two buffers may alias. `control` and `control_normal_sums` are read a whole
+// 16-byte vector at a time (vec3_sse.h PaddedVec3Reader): each holds kVec3ReadPadding
+// (memory.h) readable vectors past its control_vertex_count positions.
 // With `skeletal` (control_vertex_count positions, S indexed like `control`), each control
 // normal sum is first turned onto the medial direction control − skeletal
 // (dss::medial_normal_sums: extension version 2.1); null leaves the area-weighted sums.

@@ -288,9 +288,9 @@ SF_API sf_result sf_instance_set_handle_targets(sf_instance* instance, const flo
  * pairs the guard's first search finds anyway, so it costs only its moves; under handles,
  * where there is no guard, it runs its own broad phase over every dense triangle. Its work
  * is bounded, linear in the triangles, and a surface tangled over itself beyond that bound is
- * left as skelform made it (the guards still apply). It never feeds the fairing's warm start. Turning it off frees
- * the pass's scratch; turning it on again allocates it. Normals and tangents are left as the
- * displacement computed them. `enabled` is 0 or 1. */
+ * left as skelform made it (the guards still apply). It never feeds the fairing's warm start.
+ * Turning it off frees the pass's scratch; turning it on again allocates it. Normals and
+ * tangents are left as the displacement computed them. `enabled` is 0 or 1. */
 SF_API sf_result sf_instance_set_contacts(sf_instance* instance, uint32_t enabled);
 
 /* ---------------------------------------------------------------------------------------- */
