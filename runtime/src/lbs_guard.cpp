@@ -5,6 +5,7 @@
 #include "instance.h"
 #include "skin_blend.h"
 #include "triangle_bvh.h"
+#include "volume_sums.h"
 
 #include <glm/common.hpp>
 
@@ -480,26 +481,19 @@ void volume_cubic(const ContactMesh& mesh, const glm::dvec3* base, const glm::dv
 }
 
 // Whether the volume at m = 1 (base + delta) is surely no further from `target` than at m = 0
-// (base), in two determinants per triangle where the cubic takes eight: by more than the
-// rounding that separates this V(1) from the cubic's v[0] + v[1] + v[2] + v[3] (both sums of
-// the triangles' determinants, each within a few units of double rounding of the product of
-// its corners' L1 norms, the sums within their count's; bounded by 4(T + 32)·2^-52 times the
-// sum of those products). So where it says yes, the cubic's test (volume_share) would say yes
-// too; elsewhere the caller expands the cubic and decides as before. V(0) is the cubic's v[0]
-// bit for bit.
+// (base), in two determinants per triangle where the cubic takes eight (volume_sums.h): by more
+// than the rounding that separates these V(1) and V(0) from the cubic's v[0] + v[1] + v[2] +
+// v[3] and v[0]. All four are sums of the triangles' determinants, each within a few units of
+// double rounding of the product of its corners' L1 norms, the sums (in any order) within
+// their count's; each pair differs by at most 4(T + 32)·2^-52 times the sum of those products,
+// so the two by 8(T + 32)·2^-52 of it. So where it says yes, the cubic's test (volume_share)
+// would say yes too; elsewhere the caller expands the cubic and decides as before.
 // `norm` per welded vertex: |base|₁ + |delta|₁.
 bool volume_within(const ContactMesh& mesh, const glm::dvec3* base, const glm::dvec3* delta, const double* norm,
                    double target) {
-  double at_zero = 0.0, at_one = 0.0, scale = 0.0;
-  for (uint32_t t = 0; t < mesh.triangle_count; ++t) {
-    const uint32_t* q = mesh.triangles.data() + 3 * size_t(t);
-    const glm::dvec3 &a = base[q[0]], &b = base[q[1]], &c = base[q[2]];
-    at_zero += glm::dot(a, glm::cross(b, c));
-    at_one += glm::dot(a + delta[q[0]], glm::cross(b + delta[q[1]], c + delta[q[2]]));
-    scale += norm[q[0]] * norm[q[1]] * norm[q[2]];
-  }
-  const double rounding = 4.0 * (double(mesh.triangle_count) + 32.0) * std::ldexp(1.0, -52) * scale;
-  return std::fabs(at_one / 6.0 - target) + rounding <= std::fabs(at_zero / 6.0 - target);
+  const VolumeSums sums = volume_sums(mesh.triangles.data(), mesh.triangle_count, mesh.vertex_count, base, delta, norm);
+  const double rounding = 8.0 * (double(mesh.triangle_count) + 32.0) * std::ldexp(1.0, -52) * sums.scale;
+  return std::fabs(sums.at_one / 6.0 - target) + rounding <= std::fabs(sums.at_zero / 6.0 - target);
 }
 
 // The volume bounded by x(μ) = L + μ·c at the representatives, c the guarded correction, as a
@@ -508,23 +502,18 @@ bool volume_within(const ContactMesh& mesh, const glm::dvec3* base, const glm::d
 // evaluations are.
 bool volume_polynomial(const Deformable& d, const ContactMesh& mesh, const DenseOutput& skelform,
                        const DenseOutput& lbs, GuardWorkspace& ws, double v[4], const double* within_target = nullptr) {
-  const float* weight = d.skelform_weight.data();
-  glm::dvec3 lo(std::numeric_limits<double>::max()), hi(-std::numeric_limits<double>::max());
+  // L's bounds in float: min and max of floats widen to those of the widened floats.
+  glm::vec3 lo(std::numeric_limits<float>::max()), hi(-std::numeric_limits<float>::max());
   for (uint32_t w = 0; w < mesh.vertex_count; ++w) {
-    const glm::dvec3 p(lbs.positions[mesh.representative[w]]);
+    const glm::vec3 p = lbs.positions[mesh.representative[w]];
     lo = glm::min(lo, p);
     hi = glm::max(hi, p);
   }
-  const glm::dvec3 centre = 0.5 * (lo + hi);
-  for (uint32_t w = 0; w < mesh.vertex_count; ++w) {
-    const uint32_t r = mesh.representative[w];
-    const double s = double(weight[r]) * double(ws.factor[w]);
-    ws.volume_base[w] = glm::dvec3(lbs.positions[r]) - centre;
-    ws.volume_delta[w] = s * (glm::dvec3(skelform.positions[r]) - glm::dvec3(lbs.positions[r]));
-    if (!within_target) continue;  // only volume_within reads the norms
-    const glm::dvec3 b = glm::abs(ws.volume_base[w]), c = glm::abs(ws.volume_delta[w]);
-    ws.volume_norm[w] = b.x + b.y + b.z + c.x + c.y + c.z;
-  }
+  const glm::dvec3 centre = 0.5 * (glm::dvec3(lo) + glm::dvec3(hi));
+  // (Only volume_within reads the norms.)
+  volume_points(mesh.vertex_count, mesh.representative.data(), lbs.positions, skelform.positions,
+                d.skelform_weight.data(), ws.factor.data(), centre, ws.volume_base.data(), ws.volume_delta.data(),
+                within_target ? ws.volume_norm.data() : nullptr);
   if (within_target &&
       volume_within(mesh, ws.volume_base.data(), ws.volume_delta.data(), ws.volume_norm.data(), *within_target))
     return false;

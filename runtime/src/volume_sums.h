@@ -1,0 +1,211 @@
+// The sums behind the LBS guard's volume test (lbs_guard.cpp volume_within): over the triangles
+// (a, b, c) of a closed welded mesh, with a base point a and a direction α per welded vertex,
+//   at_zero = Σ det(a, b, c),   at_one = Σ det(a + α, b + β, c + γ),   scale = Σ n_a n_b n_c
+// (det(x, y, z) = x·(y × z), six times the signed volume of the tetrahedron on the origin; n a
+// per-vertex norm, for the caller's rounding bound). The test runs on every evaluation of a
+// closed character and reads every triangle, in double: on a 75K-triangle mesh it was an eighth
+// of an evaluation.
+//
+// volume_sums() picks the fastest form once: with AVX2, four triangles at a time, their corners
+// gathered from the interleaved arrays, each lane summing its own triangles and the lanes added
+// at the end (the same products per triangle, summed in another order); elsewhere the portable
+// loop. The two differ by the rounding of their sums, which the caller's bound covers (any
+// order of summing T terms is within (T − 1)·2^-53 of their absolute sum).
+#pragma once
+
+#include <glm/geometric.hpp>
+#include <glm/vec3.hpp>
+
+#include <cstdint>
+#include <limits>
+
+#if defined(__SSE2__) && (defined(__x86_64__) || defined(__i386__)) && (defined(__GNUC__) || defined(__clang__))
+#  define SKELFORM_VOLUME_SUMS_AVX2 1
+#  include <immintrin.h>
+#endif
+
+namespace skelform::runtime {
+
+struct VolumeSums {
+  double at_zero = 0.0, at_one = 0.0, scale = 0.0;
+};
+
+// The sums over triangles [first, end), added to `sums` in triangle order.
+inline void volume_sums_portable(const uint32_t* triangles, uint32_t first, uint32_t end, const glm::dvec3* base,
+                                 const glm::dvec3* delta, const double* norm, VolumeSums& sums) {
+  double at_zero = sums.at_zero, at_one = sums.at_one, scale = sums.scale;
+  for (uint32_t t = first; t < end; ++t) {
+    const uint32_t* q = triangles + 3 * size_t(t);
+    const glm::dvec3 &a = base[q[0]], &b = base[q[1]], &c = base[q[2]];
+    at_zero += glm::dot(a, glm::cross(b, c));
+    at_one += glm::dot(a + delta[q[0]], glm::cross(b + delta[q[1]], c + delta[q[2]]));
+    scale += norm[q[0]] * norm[q[1]] * norm[q[2]];
+  }
+  sums = {at_zero, at_one, scale};
+}
+
+#if defined(SKELFORM_VOLUME_SUMS_AVX2)
+namespace detail {
+
+struct D4 {
+  __m256d x, y, z;
+};
+
+// det(a, b, c) = a·(b × c) lane by lane, as glm::dot(a, glm::cross(b, c)) computes it.
+__attribute__((target("avx2"))) inline __m256d det_d4(const D4& a, const D4& b, const D4& c) {
+  const __m256d kx = _mm256_sub_pd(_mm256_mul_pd(b.y, c.z), _mm256_mul_pd(c.y, b.z));
+  const __m256d ky = _mm256_sub_pd(_mm256_mul_pd(b.z, c.x), _mm256_mul_pd(c.z, b.x));
+  const __m256d kz = _mm256_sub_pd(_mm256_mul_pd(b.x, c.y), _mm256_mul_pd(c.x, b.y));
+  return _mm256_add_pd(_mm256_add_pd(_mm256_mul_pd(a.x, kx), _mm256_mul_pd(a.y, ky)), _mm256_mul_pd(a.z, kz));
+}
+
+// Gathers with every lane enabled and a zero source (GCC 12 warns that the unmasked forms read
+// an uninitialised one).
+__attribute__((target("avx2"))) inline __m256d gather_d4(const double* p, __m128i index) {
+  return _mm256_mask_i32gather_pd(_mm256_setzero_pd(), p, index, _mm256_castsi256_pd(_mm256_set1_epi64x(-1)), 8);
+}
+__attribute__((target("avx2"))) inline __m128i gather_u4(const int* p, __m128i index) {
+  return _mm_mask_i32gather_epi32(_mm_setzero_si128(), p, index, _mm_set1_epi32(-1), 4);
+}
+
+// The sums over triangles [0, 4·⌊count/4⌋), four at a time; returns where it stopped. Vertex
+// indices must be below 2^31 / 3 (the gathers' offsets are int32 doubles).
+__attribute__((target("avx2"))) inline uint32_t volume_sums_avx2(const uint32_t* triangles, uint32_t count,
+                                                                 const glm::dvec3* base, const glm::dvec3* delta,
+                                                                 const double* norm, VolumeSums& sums) {
+  static_assert(sizeof(glm::dvec3) == 3 * sizeof(double), "dvec3 is three packed doubles");
+  const double* b = &base[0].x;
+  const double* d = &delta[0].x;
+  const __m128i rows = _mm_setr_epi32(0, 3, 6, 9);  // a corner of four consecutive triangles
+  __m256d at_zero = _mm256_setzero_pd(), at_one = at_zero, scale = at_zero;
+  uint32_t t = 0;
+  for (; t + 4 <= count; t += 4) {
+    const int* q = reinterpret_cast<const int*>(triangles + 3 * size_t(t));
+    D4 p[3], m[3];
+    __m256d n[3];
+    for (int k = 0; k < 3; ++k) {
+      const __m128i v = gather_u4(q + k, rows);
+      const __m128i v3 = _mm_add_epi32(v, _mm_add_epi32(v, v));  // the vertex's first double
+      n[k] = gather_d4(norm, v);
+      p[k] = {gather_d4(b, v3), gather_d4(b + 1, v3), gather_d4(b + 2, v3)};
+      const D4 e = {gather_d4(d, v3), gather_d4(d + 1, v3), gather_d4(d + 2, v3)};
+      m[k] = {_mm256_add_pd(p[k].x, e.x), _mm256_add_pd(p[k].y, e.y), _mm256_add_pd(p[k].z, e.z)};
+    }
+    at_zero = _mm256_add_pd(at_zero, det_d4(p[0], p[1], p[2]));
+    at_one = _mm256_add_pd(at_one, det_d4(m[0], m[1], m[2]));
+    scale = _mm256_add_pd(scale, _mm256_mul_pd(_mm256_mul_pd(n[0], n[1]), n[2]));
+  }
+  alignas(32) double lanes[3][4];
+  _mm256_store_pd(lanes[0], at_zero);
+  _mm256_store_pd(lanes[1], at_one);
+  _mm256_store_pd(lanes[2], scale);
+  sums.at_zero += (lanes[0][0] + lanes[0][1]) + (lanes[0][2] + lanes[0][3]);
+  sums.at_one += (lanes[1][0] + lanes[1][1]) + (lanes[1][2] + lanes[1][3]);
+  sums.scale += (lanes[2][0] + lanes[2][1]) + (lanes[2][2] + lanes[2][3]);
+  return t;
+}
+
+}  // namespace detail
+#endif
+
+// Per welded vertex w of [first, end), with r = representative[w], s = weight[r]·factor[w]:
+// base = L_r − centre, delta = s·(K_r − L_r), in double, and (norm not null) norm = |base|₁ +
+// |delta|₁ summed x, y, z of base then of delta.
+inline void volume_points_portable(uint32_t first, uint32_t end, const uint32_t* representative, const glm::vec3* lbs,
+                                   const glm::vec3* skelform, const float* weight, const float* factor,
+                                   const glm::dvec3& centre, glm::dvec3* base, glm::dvec3* delta, double* norm) {
+  for (uint32_t w = first; w < end; ++w) {
+    const uint32_t r = representative[w];
+    const double s = double(weight[r]) * double(factor[w]);
+    base[w] = glm::dvec3(lbs[r]) - centre;
+    delta[w] = s * (glm::dvec3(skelform[r]) - glm::dvec3(lbs[r]));
+    if (!norm) continue;
+    const glm::dvec3 b = glm::abs(base[w]), c = glm::abs(delta[w]);
+    norm[w] = b.x + b.y + b.z + c.x + c.y + c.z;
+  }
+}
+
+#if defined(SKELFORM_VOLUME_SUMS_AVX2)
+namespace detail {
+
+__attribute__((target("avx2"))) inline __m128 gather_f4(const float* p, __m128i index) {
+  return _mm_mask_i32gather_ps(_mm_setzero_ps(), p, index, _mm_castsi128_ps(_mm_set1_epi32(-1)), 4);
+}
+
+// volume_points_portable over welded vertices [0, 4·⌊count/4⌋), four at a time: the same
+// operations in double on the same widened floats (weight·factor is exact in double), so the
+// same bits. Returns where it stopped. Representatives below 2^31 / 3.
+__attribute__((target("avx2"))) inline uint32_t volume_points_avx2(uint32_t count, const uint32_t* representative,
+                                                                   const glm::vec3* lbs, const glm::vec3* skelform,
+                                                                   const float* weight, const float* factor,
+                                                                   const glm::dvec3& centre, glm::dvec3* base,
+                                                                   glm::dvec3* delta, double* norm) {
+  static_assert(sizeof(glm::vec3) == 3 * sizeof(float), "vec3 is three packed floats");
+  const __m256d sign = _mm256_set1_pd(-0.0);
+  const __m256d centre_axis[3] = {_mm256_set1_pd(centre.x), _mm256_set1_pd(centre.y), _mm256_set1_pd(centre.z)};
+  uint32_t w = 0;
+  for (; w + 4 <= count; w += 4) {
+    const __m128i r = _mm_loadu_si128(reinterpret_cast<const __m128i*>(representative + w));
+    const __m128i r3 = _mm_add_epi32(r, _mm_add_epi32(r, r));
+    const __m256d s = _mm256_mul_pd(_mm256_cvtps_pd(gather_f4(weight, r)), _mm256_cvtps_pd(_mm_loadu_ps(factor + w)));
+    alignas(32) double b[3][4], d[3][4];
+    __m256d sum = _mm256_setzero_pd();
+    for (int axis = 0; axis < 3; ++axis) {
+      const __m256d l = _mm256_cvtps_pd(gather_f4(&lbs[0].x + axis, r3));
+      const __m256d k = _mm256_cvtps_pd(gather_f4(&skelform[0].x + axis, r3));
+      const __m256d bx = _mm256_sub_pd(l, centre_axis[axis]);
+      _mm256_store_pd(b[axis], bx);
+      _mm256_store_pd(d[axis], _mm256_mul_pd(s, _mm256_sub_pd(k, l)));
+      sum = axis == 0 ? _mm256_andnot_pd(sign, bx) : _mm256_add_pd(sum, _mm256_andnot_pd(sign, bx));
+    }
+    for (int axis = 0; axis < 3; ++axis) sum = _mm256_add_pd(sum, _mm256_andnot_pd(sign, _mm256_load_pd(d[axis])));
+    if (norm) _mm256_storeu_pd(norm + w, sum);
+    for (int i = 0; i < 4; ++i) {
+      base[w + i] = glm::dvec3(b[0][i], b[1][i], b[2][i]);
+      delta[w + i] = glm::dvec3(d[0][i], d[1][i], d[2][i]);
+    }
+  }
+  return w;
+}
+
+}  // namespace detail
+#endif
+
+#if defined(SKELFORM_VOLUME_SUMS_AVX2)
+inline bool volume_avx2() {
+  static const bool avx2 = [] {
+    __builtin_cpu_init();
+    return __builtin_cpu_supports("avx2") != 0;
+  }();
+  return avx2;
+}
+#endif
+
+// volume_points_portable over every welded vertex, in the fastest form this CPU runs.
+inline void volume_points(uint32_t count, const uint32_t* representative, const glm::vec3* lbs,
+                          const glm::vec3* skelform, const float* weight, const float* factor,
+                          const glm::dvec3& centre, glm::dvec3* base, glm::dvec3* delta, double* norm) {
+  uint32_t done = 0;
+#if defined(SKELFORM_VOLUME_SUMS_AVX2)
+  if (volume_avx2() && count <= uint32_t(std::numeric_limits<int32_t>::max() / 3))
+    done = detail::volume_points_avx2(count, representative, lbs, skelform, weight, factor, centre, base, delta, norm);
+#endif
+  volume_points_portable(done, count, representative, lbs, skelform, weight, factor, centre, base, delta, norm);
+}
+
+// The sums over every triangle, in the fastest form this CPU runs (checked once).
+inline VolumeSums volume_sums(const uint32_t* triangles, uint32_t triangle_count, uint32_t vertex_count,
+                              const glm::dvec3* base, const glm::dvec3* delta, const double* norm) {
+  VolumeSums sums;
+  uint32_t done = 0;
+#if defined(SKELFORM_VOLUME_SUMS_AVX2)
+  if (volume_avx2() && vertex_count <= uint32_t(std::numeric_limits<int32_t>::max() / 3))
+    done = detail::volume_sums_avx2(triangles, triangle_count, base, delta, norm, sums);
+#else
+  (void)vertex_count;
+#endif
+  volume_sums_portable(triangles, done, triangle_count, base, delta, norm, sums);
+  return sums;
+}
+
+}  // namespace skelform::runtime
