@@ -388,7 +388,14 @@ void guard_intersections(const Deformable& d, const ContactMesh& mesh, const Den
     bool added = false;
     bool complete = pass.search(round, added);
     pass.stop_recording();
-    for (uint32_t t : ws.test_list) ws.tested[t] = 0, ws.wanted[mesh.hierarchy.slot[t]] = 0;
+    // The flags back to 0: by the list, or as two fills where it holds a good part of the mesh
+    // (the first round lists every triangle with a moved corner: most of a character).
+    if (ws.test_list.size() > mesh.triangle_count / 8) {
+      std::fill(ws.tested.begin(), ws.tested.end(), uint8_t{0});
+      std::fill(ws.wanted.begin(), ws.wanted.end(), uint8_t{0});
+    } else {
+      for (uint32_t t : ws.test_list) ws.tested[t] = 0, ws.wanted[mesh.hierarchy.slot[t]] = 0;
+    }
     ws.test_list.clear();
     if (complete && round == 0 && hook && ws.pairs_complete && !ws.pair_keys.empty()) {
       const Array<uint32_t>& moved = hook->after_first_search(
