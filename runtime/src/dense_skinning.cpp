@@ -11,6 +11,7 @@
 // Every kernel works on a range of one primitive's vertices and writes through a sink: the
 // instance's arrays (sf_instance_evaluate) or the caller's strided streams
 // (sf_instance_skin_range), the same floats either way.
+#include "cpu.h"
 #include "instance.h"
 
 #include <cmath>
@@ -254,13 +255,6 @@ bool skin_linear_avx2_any(const Deformable& d, const glm::mat4* matrices, Range 
   return skin_linear_avx2<0>(d, matrices, range, sink);
 }
 
-bool cpu_has_avx2() {
-  static const bool has = [] {
-    __builtin_cpu_init();
-    return __builtin_cpu_supports("avx2") != 0;
-  }();
-  return has;
-}
 #endif
 
 // The portable loop, one instantiation per blend so the per-vertex kernel is a direct call

@@ -19,8 +19,9 @@
 #include <cstdint>
 #include <limits>
 
-#if defined(__SSE2__) && (defined(__x86_64__) || defined(__i386__)) && (defined(__GNUC__) || defined(__clang__))
-#  define SKELFORM_VOLUME_SUMS_AVX2 1
+#include "cpu.h"
+
+#if defined(SKELFORM_HAS_AVX2_KERNELS)
 #  include <immintrin.h>
 #endif
 
@@ -44,7 +45,7 @@ inline void volume_sums_portable(const uint32_t* triangles, uint32_t first, uint
   sums = {at_zero, at_one, scale};
 }
 
-#if defined(SKELFORM_VOLUME_SUMS_AVX2)
+#if defined(SKELFORM_HAS_AVX2_KERNELS)
 namespace detail {
 
 struct D4 {
@@ -125,7 +126,7 @@ inline void volume_points_portable(uint32_t first, uint32_t end, const uint32_t*
   }
 }
 
-#if defined(SKELFORM_VOLUME_SUMS_AVX2)
+#if defined(SKELFORM_HAS_AVX2_KERNELS)
 namespace detail {
 
 __attribute__((target("avx2"))) inline __m128 gather_f4(const float* p, __m128i index) {
@@ -171,23 +172,13 @@ __attribute__((target("avx2"))) inline uint32_t volume_points_avx2(uint32_t coun
 }  // namespace detail
 #endif
 
-#if defined(SKELFORM_VOLUME_SUMS_AVX2)
-inline bool volume_avx2() {
-  static const bool avx2 = [] {
-    __builtin_cpu_init();
-    return __builtin_cpu_supports("avx2") != 0;
-  }();
-  return avx2;
-}
-#endif
-
 // volume_points_portable over every welded vertex, in the fastest form this CPU runs.
 inline void volume_points(uint32_t count, const uint32_t* representative, const glm::vec3* lbs,
-                          const glm::vec3* skelform, const float* weight, const float* factor,
-                          const glm::dvec3& centre, glm::dvec3* base, glm::dvec3* delta, double* norm) {
+                          const glm::vec3* skelform, const float* weight, const float* factor, const glm::dvec3& centre,
+                          glm::dvec3* base, glm::dvec3* delta, double* norm) {
   uint32_t done = 0;
-#if defined(SKELFORM_VOLUME_SUMS_AVX2)
-  if (volume_avx2() && count <= uint32_t(std::numeric_limits<int32_t>::max() / 3))
+#if defined(SKELFORM_HAS_AVX2_KERNELS)
+  if (cpu_has_avx2() && count <= uint32_t(std::numeric_limits<int32_t>::max() / 3))
     done = detail::volume_points_avx2(count, representative, lbs, skelform, weight, factor, centre, base, delta, norm);
 #endif
   volume_points_portable(done, count, representative, lbs, skelform, weight, factor, centre, base, delta, norm);
@@ -198,8 +189,8 @@ inline VolumeSums volume_sums(const uint32_t* triangles, uint32_t triangle_count
                               const glm::dvec3* base, const glm::dvec3* delta, const double* norm) {
   VolumeSums sums;
   uint32_t done = 0;
-#if defined(SKELFORM_VOLUME_SUMS_AVX2)
-  if (volume_avx2() && vertex_count <= uint32_t(std::numeric_limits<int32_t>::max() / 3))
+#if defined(SKELFORM_HAS_AVX2_KERNELS)
+  if (cpu_has_avx2() && vertex_count <= uint32_t(std::numeric_limits<int32_t>::max() / 3))
     done = detail::volume_sums_avx2(triangles, triangle_count, base, delta, norm, sums);
 #else
   (void)vertex_count;

@@ -2,6 +2,7 @@
 // is known: the sums give its volume, scale by the cube of a uniform scaling, and the AVX2
 // forms agree with the portable loops (the points bit for bit, the sums within the rounding
 // bound the guard allows them).
+#include "runtime/torus.h"
 #include "volume_sums.h"
 
 #include <doctest/doctest.h>
@@ -17,31 +18,8 @@
 namespace {
 
 using namespace skelform::runtime;
-
-constexpr double kPi = 3.14159265358979323846;
-
-// A closed torus of radii R (ring) and r (tube), `around` × `tube` quads, outward oriented,
-// centred at `centre`.
-struct Torus {
-  std::vector<glm::vec3> positions;
-  std::vector<uint32_t> triangles;
-  Torus(uint32_t around, uint32_t tube, float R, float r, glm::vec3 centre) {
-    for (uint32_t i = 0; i < around; ++i)
-      for (uint32_t j = 0; j < tube; ++j) {
-        const double u = 2.0 * kPi * i / around, v = 2.0 * kPi * j / tube;
-        const double ring = R + r * std::cos(v);
-        positions.push_back(centre + glm::vec3(glm::dvec3(ring * std::cos(u), ring * std::sin(u), r * std::sin(v))));
-      }
-    auto at = [&](uint32_t i, uint32_t j) { return (i % around) * tube + j % tube; };
-    for (uint32_t i = 0; i < around; ++i)
-      for (uint32_t j = 0; j < tube; ++j) {
-        const uint32_t a = at(i, j), b = at(i + 1, j), c = at(i + 1, j + 1), d = at(i, j + 1);
-        triangles.insert(triangles.end(), {a, b, c, a, c, d});
-      }
-  }
-  uint32_t vertex_count() const { return uint32_t(positions.size()); }
-  uint32_t triangle_count() const { return uint32_t(triangles.size() / 3); }
-};
+using skelform::test::kPi;
+using skelform::test::Torus;
 
 // The guard's inputs for the torus as "L", K = L moved by `move` per vertex; representative w
 // → w reversed, so that the gathers do not read in order.
@@ -88,8 +66,8 @@ TEST_CASE("volume sums: the torus's volume, scaled by the cube of a uniform scal
     const glm::dvec3 b = glm::abs(base.back()), c = glm::abs(delta.back());
     norm.push_back(b.x + b.y + b.z + c.x + c.y + c.z);
   }
-  const VolumeSums sums = volume_sums(torus.triangles.data(), torus.triangle_count(), torus.vertex_count(),
-                                      base.data(), delta.data(), norm.data());
+  const VolumeSums sums = volume_sums(torus.triangles.data(), torus.triangle_count(), torus.vertex_count(), base.data(),
+                                      delta.data(), norm.data());
   // The polygonal torus's volume approaches 2π²Rr² (inscribed: a little below).
   const double exact = 2.0 * kPi * kPi * double(R) * double(r) * double(r);
   CHECK(sums.at_zero / 6.0 < exact);
@@ -107,7 +85,7 @@ TEST_CASE("volume sums: the torus's volume, scaled by the cube of a uniform scal
 }
 
 TEST_CASE("volume sums: the AVX2 forms give the portable loops' points bit for bit and their sums to rounding") {
-#if defined(SKELFORM_VOLUME_SUMS_AVX2)
+#if defined(SKELFORM_HAS_AVX2_KERNELS)
   __builtin_cpu_init();
   if (!__builtin_cpu_supports("avx2")) {
     MESSAGE("skipped: this CPU has no AVX2");
@@ -123,10 +101,9 @@ TEST_CASE("volume sums: the AVX2 forms give the portable loops' points bit for b
   Points fast(torus, move, 11), slow(torus, move, 11);
   const glm::dvec3 centre(3.1, -39.9, 7.4);
   for (double* norm : {fast.norm.data(), static_cast<double*>(nullptr)}) {
-    const uint32_t done = detail::volume_points_avx2(torus.vertex_count(), fast.representative.data(),
-                                                     fast.lbs.data(), fast.skelform.data(), fast.weight.data(),
-                                                     fast.factor.data(), centre, fast.base.data(), fast.delta.data(),
-                                                     norm);
+    const uint32_t done = detail::volume_points_avx2(torus.vertex_count(), fast.representative.data(), fast.lbs.data(),
+                                                     fast.skelform.data(), fast.weight.data(), fast.factor.data(),
+                                                     centre, fast.base.data(), fast.delta.data(), norm);
     CHECK(done == torus.vertex_count() - 2);
     volume_points_portable(done, torus.vertex_count(), fast.representative.data(), fast.lbs.data(),
                            fast.skelform.data(), fast.weight.data(), fast.factor.data(), centre, fast.base.data(),
