@@ -2,6 +2,7 @@
 
 #include "asset.h"
 #include "exact_triangles.h"
+#include "guard_seed.h"
 #include "instance.h"
 #include "skin_blend.h"
 #include "triangle_bvh.h"
@@ -12,20 +13,11 @@
 #include <algorithm>
 #include <cmath>
 
-#if defined(__SSE2__)
-#  include <emmintrin.h>
-#endif
-
 namespace skelform::runtime {
 
 namespace {
 
 glm::dvec3 widen(const glm::vec3& p) { return glm::dvec3(p); }
-
-inline void triangle_box(const glm::vec3& p0, const glm::vec3& p1, const glm::vec3& p2, float* b) {
-  const glm::vec3 lo = glm::min(glm::min(p0, p1), p2), hi = glm::max(glm::max(p0, p1), p2);
-  b[0] = lo.x, b[1] = lo.y, b[2] = lo.z, b[3] = hi.x, b[4] = hi.y, b[5] = hi.z;
-}
 
 }  // namespace
 
@@ -34,7 +26,7 @@ GuardWorkspace make_guard_workspace(const ContactMesh& mesh, const AllocatorRef&
   const size_t triangles = mesh.triangle_count;
   ws.factor.resize(mesh.vertex_count);
   ws.positions.resize(mesh.vertex_count);
-  ws.moved.resize(mesh.vertex_count);
+  ws.moved.resize(mesh.vertex_count + 3);  // + 3: guard_seed.h
   ws.flagged.resize(mesh.vertex_count);
   ws.changed.resize(mesh.vertex_count);
   ws.flagged_list.reserve(mesh.vertex_count);
@@ -113,59 +105,16 @@ class GuardPass {
       }
   }
 
-  // Every position and box, slot by slot, and the triangles with a moved corner. False when
-  // a position is not finite.
+  // Every position and box, slot by slot, and the triangles with a moved corner (guard_seed.h).
+  // False when a position is not finite.
   bool seed_all() {
-    bool finite = true;
-    for (uint32_t v = 0; v < mesh_.vertex_count; ++v) {
-      const glm::vec3 l = lbs_.positions[rep_[v]];
-      ws_.positions[v] = blended_position(d_, mesh_, skelform_, lbs_, ws_, v);
-      ws_.moved[v] = ws_.positions[v] != l;
-      finite &= std::isfinite(l.x + l.y + l.z + ws_.positions[v].x + ws_.positions[v].y + ws_.positions[v].z);
-    }
-    if (!finite) return false;
-    const size_t stride = h_.slot_stride();
-    const uint32_t* corners = h_.corners.data();  // slot order
-    uint32_t i = 0;
-#if defined(__SSE2__)
-    // Four slots' boxes at a time, stored as lanes of the box planes: triangle_box's glm::min
-    // (y < x ? y : x) and glm::max (x < y ? y : x) are _mm_min_ps(y, x) and _mm_max_ps(y, x).
-    const glm::vec3* x = ws_.positions.data();
-    float* planes = ws_.boxes.planes.data();
-    for (; i + 4 <= mesh_.triangle_count; i += 4) {
-      __m128 lo[3], hi[3];
-      for (size_t k = 0; k < 3; ++k) {
-        const uint32_t* c = corners + k * stride + i;
-        for (int axis = 0; axis < 3; ++axis) {
-          const __m128 p = _mm_setr_ps(x[c[0]][axis], x[c[1]][axis], x[c[2]][axis], x[c[3]][axis]);
-          lo[axis] = k == 0 ? p : _mm_min_ps(p, lo[axis]);
-          hi[axis] = k == 0 ? p : _mm_max_ps(p, hi[axis]);
-        }
-      }
-      for (size_t axis = 0; axis < 3; ++axis) {
-        _mm_storeu_ps(planes + axis * ws_.boxes.stride + i, lo[axis]);
-        _mm_storeu_ps(planes + (3 + axis) * ws_.boxes.stride + i, hi[axis]);
-      }
-      for (uint32_t j = i; j < i + 4; ++j) seed_moved(j, corners[j], corners[stride + j], corners[2 * stride + j]);
-    }
-#endif
-    for (; i < mesh_.triangle_count; ++i) {
-      const uint32_t c[3] = {corners[i], corners[stride + i], corners[2 * stride + i]};
-      float box[6];
-      triangle_box(ws_.positions[c[0]], ws_.positions[c[1]], ws_.positions[c[2]], box);
-      ws_.boxes.set(i, box);
-      seed_moved(i, c[0], c[1], c[2]);
-    }
+    const SeedOutput out{ws_.positions.data(), ws_.moved.data(),  &ws_.boxes,
+                         ws_.tested.data(),    ws_.wanted.data(), &ws_.test_list};
+    if (!seed_positions(mesh_.vertex_count,
+                        {rep_, lbs_.positions, skelform_.positions, d_.skelform_weight.data(), ws_.factor.data()}, out))
+      return false;
+    seed_boxes(mesh_.vertex_count, h_, out);
     return true;
-  }
-
-  // The triangle in `slot`, corners c0, c1, c2, is listed (tested, wanted) when one moved.
-  void seed_moved(uint32_t slot, uint32_t c0, uint32_t c1, uint32_t c2) {
-    const uint32_t t = h_.order[slot];
-    const bool moved = ws_.moved[c0] || ws_.moved[c1] || ws_.moved[c2];
-    ws_.tested[t] = moved;
-    ws_.wanted[slot] = moved;
-    if (moved) ws_.test_list.push_back(t);
   }
 
   // Round `round`'s search over ws.test_list: flags the corners of every pair LBS lacks (of its
