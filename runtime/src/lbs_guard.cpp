@@ -2,6 +2,7 @@
 
 #include "asset.h"
 #include "exact_triangles.h"
+#include "guard_blend.h"
 #include "guard_seed.h"
 #include "instance.h"
 #include "skin_blend.h"
@@ -650,27 +651,11 @@ void guard_and_blend(const Deformable& d, const ContactMesh& mesh, float scale, 
 
   ws.corrected = 0;
   for (uint32_t v = 0; v < mesh.vertex_count; ++v) ws.corrected += ws.factor[v] < 1.0f ? 1u : 0u;
-  // The output, every dense vertex with its welded vertex's λ.
-  for (const PrimitiveRecord& primitive : d.primitives) {
-    const uint32_t end = primitive.first_vertex + primitive.vertex_count;
-    const bool tangents = with_normals && primitive.has_tangents && out.tangents;
-    for (uint32_t v = primitive.first_vertex; v < end; ++v) {
-      const float s = weight[v] * (welded ? ws.factor[mesh.weld[v]] : 1.0f);
-      if (s == 0.0f) {
-        out.positions[v] = lbs.positions[v];
-        if (with_normals) out.normals[v] = lbs.normals[v];
-        if (tangents) out.tangents[v] = lbs.tangents[v];
-        continue;
-      }
-      out.positions[v] = blend_with_lbs(lbs.positions[v], skelform.positions[v], s);
-      if (with_normals)
-        out.normals[v] = normalize_or(lbs.normals[v] + s * (skelform.normals[v] - lbs.normals[v]), lbs.normals[v]);
-      if (tangents) {
-        const glm::vec3 t(lbs.tangents[v]);
-        out.tangents[v] = glm::vec4(normalize_or(t + s * (glm::vec3(skelform.tangents[v]) - t), t), lbs.tangents[v].w);
-      }
-    }
-  }
+  // The output, every dense vertex with its welded vertex's λ (guard_blend.h).
+  const BlendInput in{weight, welded ? ws.factor.data() : nullptr, mesh.weld.data(), skelform, lbs};
+  for (const PrimitiveRecord& primitive : d.primitives)
+    blend_output(primitive.first_vertex, primitive.first_vertex + primitive.vertex_count, in, with_normals,
+                 with_normals && primitive.has_tangents && out.tangents, out);
 }
 
 }  // namespace skelform::runtime
