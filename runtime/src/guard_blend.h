@@ -28,11 +28,11 @@
 namespace skelform::runtime {
 
 struct BlendInput {
-  const float* weight;    // per dense vertex
-  const float* factor;    // λ per welded vertex, or null (λ = 1)
-  const uint32_t* weld;   // per dense vertex: its welded vertex (read with factor)
-  DenseOutput skelform;   // K
-  DenseOutput lbs;        // L
+  const float* weight;   // per dense vertex
+  const float* factor;   // λ per welded vertex, or null (λ = 1)
+  const uint32_t* weld;  // per dense vertex: its welded vertex (read with factor)
+  DenseOutput skelform;  // K
+  DenseOutput lbs;       // L
 };
 
 // Dense vertices [first, end); `out` may be in.skelform itself (a vertex is written after its
@@ -84,8 +84,8 @@ __attribute__((target("avx2"))) inline uint32_t blend_output_avx2(uint32_t first
     __m256 s = _mm256_loadu_ps(in.weight + v);
     if (in.factor) {
       const __m256i welded = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(in.weld + v));
-      s = _mm256_mul_ps(s, _mm256_mask_i32gather_ps(zero, in.factor, welded, _mm256_castsi256_ps(_mm256_set1_epi32(-1)),
-                                                    4));
+      s = _mm256_mul_ps(
+          s, _mm256_mask_i32gather_ps(zero, in.factor, welded, _mm256_castsi256_ps(_mm256_set1_epi32(-1)), 4));
     } else {
       s = _mm256_mul_ps(s, _mm256_set1_ps(1.0f));
     }
@@ -107,9 +107,9 @@ __attribute__((target("avx2"))) inline uint32_t blend_output_avx2(uint32_t first
       // normalize_or: length √((x² + y²) + z²), used where > 1e-30 and finite.
       const __m256 length = _mm256_sqrt_ps(_mm256_add_ps(
           _mm256_add_ps(_mm256_mul_ps(n[0], n[0]), _mm256_mul_ps(n[1], n[1])), _mm256_mul_ps(n[2], n[2])));
-      const __m256 usable = _mm256_andnot_ps(
-          lbs_only, _mm256_and_ps(_mm256_cmp_ps(length, _mm256_set1_ps(1e-30f), _CMP_GT_OQ),
-                                  _mm256_cmp_ps(length, _mm256_set1_ps(FLT_MAX), _CMP_LE_OQ)));
+      const __m256 usable =
+          _mm256_andnot_ps(lbs_only, _mm256_and_ps(_mm256_cmp_ps(length, _mm256_set1_ps(1e-30f), _CMP_GT_OQ),
+                                                   _mm256_cmp_ps(length, _mm256_set1_ps(FLT_MAX), _CMP_LE_OQ)));
       for (int axis = 0; axis < 3; ++axis)
         normal[axis] = _mm256_blendv_ps(l[axis], _mm256_div_ps(n[axis], length), usable);
     }

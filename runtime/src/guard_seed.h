@@ -159,8 +159,8 @@ __attribute__((target("avx2"))) inline uint32_t seed_positions_avx2(uint32_t cou
       x[axis] = _mm256_blendv_ps(_mm256_add_ps(l[axis], _mm256_mul_ps(s, _mm256_sub_ps(k, l[axis]))), l[axis], keep);
       differs = _mm256_or_ps(differs, _mm256_cmp_ps(x[axis], l[axis], _CMP_NEQ_UQ));
     }
-    const __m256 sum = _mm256_add_ps(
-        _mm256_add_ps(_mm256_add_ps(_mm256_add_ps(_mm256_add_ps(l[0], l[1]), l[2]), x[0]), x[1]), x[2]);
+    const __m256 sum =
+        _mm256_add_ps(_mm256_add_ps(_mm256_add_ps(_mm256_add_ps(_mm256_add_ps(l[0], l[1]), l[2]), x[0]), x[1]), x[2]);
     all_finite = _mm256_and_ps(all_finite, _mm256_cmp_ps(_mm256_sub_ps(sum, sum), zero, _CMP_EQ_OQ));
     const int bits = _mm256_movemask_ps(differs);
     alignas(32) float lanes[3][8];

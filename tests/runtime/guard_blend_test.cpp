@@ -46,7 +46,10 @@ struct Scene {
     for (uint32_t v = 0; v < n; v += 9) factor[v / 2] = v % 5 == 0 ? factor[v / 2] : 0.5f;
   }
   BlendInput input(std::vector<glm::vec3>& kp, std::vector<glm::vec3>& kn) {
-    return {weight.data(), factor.empty() ? nullptr : factor.data(), weld.data(), {kp.data(), kn.data(), nullptr},
+    return {weight.data(),
+            factor.empty() ? nullptr : factor.data(),
+            weld.data(),
+            {kp.data(), kn.data(), nullptr},
             {lbs_p.data(), lbs_n.data(), nullptr}};
   }
 };
@@ -97,7 +100,8 @@ TEST_CASE("guard blend: the AVX2 form gives the portable loop's bits, in place o
     for (bool normals : {true, false}) {
       scene.factor = normals ? factor : std::vector<float>{};  // and not welded: λ = 1 (factor null)
       std::vector<glm::vec3> p(scene.n), n(scene.n), fast_p(scene.n), fast_n(scene.n);
-      blend_output_portable(first, stop, scene.input(scene.k_p, scene.k_n), normals, false, {p.data(), n.data(), nullptr});
+      blend_output_portable(first, stop, scene.input(scene.k_p, scene.k_n), normals, false,
+                            {p.data(), n.data(), nullptr});
       const uint32_t done = detail::blend_output_avx2(first, stop, scene.input(scene.k_p, scene.k_n), normals,
                                                       {fast_p.data(), fast_n.data(), nullptr});
       CHECK(done == first + (stop - first) / 8 * 8);

@@ -73,9 +73,7 @@ struct Seeded {
     boxes.resize(scene.hierarchy);
     test_list.reserve(t);
   }
-  SeedOutput out() {
-    return {positions.data(), moved.data(), &boxes, tested.data(), wanted.data(), &test_list};
-  }
+  SeedOutput out() { return {positions.data(), moved.data(), &boxes, tested.data(), wanted.data(), &test_list}; }
 };
 
 bool same_bits(const void* a, const void* b, size_t bytes) { return std::memcmp(a, b, bytes) == 0; }
