@@ -31,6 +31,7 @@
 // negative number never reaches it, the runtime never reads errno, and GCC only vectorises
 // sqrt without errno.
 #include "cpu.h"
+#include "displace_block.h"
 #include "instance.h"
 #include "refine.h"
 #include "vec3_sse.h"
@@ -40,20 +41,10 @@
 
 namespace skelform::runtime {
 
+using displace_detail::Block;
+using displace_detail::kBlock;
+
 namespace {
-
-constexpr uint32_t kBlock = 64;  // dense vertices per block: ~11 KB of stack scratch
-
-// Structure-of-arrays scratch of one block. [k][i]: component k of vertex i of the block.
-struct Block {
-  float q[3][kBlock];  // the bound point b0 p0 + b1 p1 + b2 p2 of the refined triangle
-  float m[3][kBlock];  // the interpolated normal b0 n0 + b1 n1 + b2 n2, unnormalised
-  float e[3][kBlock];  // the edge p1 - p0
-  float h[kBlock], rt[kBlock], rb[kBlock];
-  float cn[3][kBlock], ct[3][kBlock];  // rest normal / tangent in rest-frame coordinates
-  float position[3][kBlock], normal[3][kBlock], tangent[3][kBlock];
-  int32_t fast[kBlock];  // 1: the main branch holds, the outputs above are the vertex's
-};
 
 // c in the frame's coordinates: c.x t + c.y b + c.z n (unit for unit c: the frame is
 // orthonormal).
@@ -175,7 +166,8 @@ __attribute__((always_inline)) inline void evaluate(uint32_t count, Block& b) {
 
 #if defined(SKELFORM_HAS_AVX2_KERNELS)
 // The same loop compiled for AVX2: the compiler vectorises it eight lanes wide, each lane the
-// same operations (no fused multiply-add: AVX2 alone does not enable FMA), so the same bits.
+// same operations (and none fused: the project compiles with -ffp-contract=off,
+// cmake/SkelformTargets.cmake, even where the target has FMA), so the same bits.
 template <bool kNormals, bool kTangents>
 __attribute__((target("avx2"))) void evaluate_avx2(uint32_t count, Block& b) {
   evaluate<kNormals, kTangents>(count, b);
@@ -267,6 +259,15 @@ void primitive_face_normals(const Deformable& d, const PrimitiveRecord& primitiv
 }
 
 }  // namespace
+
+void displace_detail::evaluate_block(bool avx2, uint32_t count, Block& b) {
+#if defined(SKELFORM_HAS_AVX2_KERNELS)
+  if (avx2 && cpu_has_avx2()) return evaluate_avx2<true, true>(count, b);
+#else
+  (void)avx2;
+#endif
+  evaluate<true, true>(count, b);
+}
 
 void displace(const Deformable& d, const glm::vec3* control, const glm::vec3* skeletal, glm::vec3* control_normal_sums,
               glm::vec3* refined_positions, glm::vec3* refined_normal_buffer, bool with_normals,

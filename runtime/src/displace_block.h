@@ -1,0 +1,27 @@
+// displace.cpp's per-vertex work in blocks: the structure-of-arrays scratch of one block of
+// dense vertices, and (for tests) its branch-free formula in each compiled form.
+#pragma once
+
+#include <cstdint>
+
+namespace skelform::runtime::displace_detail {
+
+constexpr uint32_t kBlock = 64;  // dense vertices per block: ~11 KB of stack scratch
+
+// Structure-of-arrays scratch of one block. [k][i]: component k of vertex i of the block.
+struct Block {
+  float q[3][kBlock];  // the bound point b0 p0 + b1 p1 + b2 p2 of the refined triangle
+  float m[3][kBlock];  // the interpolated normal b0 n0 + b1 n1 + b2 n2, unnormalised
+  float e[3][kBlock];  // the edge p1 - p0
+  float h[kBlock], rt[kBlock], rb[kBlock];
+  float cn[3][kBlock], ct[3][kBlock];  // rest normal / tangent in rest-frame coordinates
+  float position[3][kBlock], normal[3][kBlock], tangent[3][kBlock];
+  int32_t fast[kBlock];  // 1: the main branch holds, the outputs above are the vertex's
+};
+
+// The formula over the block's first `count` vertices, with normals and tangents, as displace.cpp
+// compiles it: four lanes wide (x86-64's baseline), or with `avx2` eight where the build has
+// AVX2 kernels and the CPU runs them (else four). Both give the same bits.
+void evaluate_block(bool avx2, uint32_t count, Block& b);
+
+}  // namespace skelform::runtime::displace_detail
