@@ -1,8 +1,13 @@
 // What this CPU runs, checked once: the runtime's AVX2 kernels are compiled for AVX2 alone
-// (target attributes) and chosen at run time, with an SSE2 or portable path beside each.
+// (target attributes) and chosen at run time, with an SSE2 or portable path beside each. Only on
+// x86-64, where float and double are evaluated in their own type (no x87 excess precision), so
+// that a kernel's lanes and the portable loop beside it round alike.
 #pragma once
 
-#if defined(__SSE2__) && (defined(__x86_64__) || defined(__i386__)) && (defined(__GNUC__) || defined(__clang__))
+#include <cstdint>
+
+#if defined(__x86_64__) && (defined(__GNUC__) || defined(__clang__)) && defined(__FLT_EVAL_METHOD__) && \
+    __FLT_EVAL_METHOD__ == 0
 #  define SKELFORM_HAS_AVX2_KERNELS 1
 #endif
 
@@ -19,5 +24,9 @@ inline bool cpu_has_avx2() {
 #else
 inline bool cpu_has_avx2() { return false; }
 #endif
+
+// Whether elements 0 .. count − 1 of an array of three floats (or doubles) each can be gathered
+// by int32 offsets: 3·(count − 1) + 2 < 2^31.
+inline bool gather_offsets_fit(uint64_t count) { return count <= uint64_t(INT32_MAX) / 3; }
 
 }  // namespace skelform::runtime

@@ -20,8 +20,7 @@
 #if defined(__SSE2__)
 #  include <emmintrin.h>
 #endif
-#if defined(__SSE2__) && (defined(__x86_64__) || defined(__i386__)) && (defined(__GNUC__) || defined(__clang__))
-#  define SKELFORM_SKINNING_AVX2 1
+#if defined(SKELFORM_HAS_AVX2_KERNELS)
 #  include <immintrin.h>
 #endif
 
@@ -148,7 +147,7 @@ bool skin_linear_sse2(const Deformable& d, const JointAffine* joints, Range rang
 }
 #endif
 
-#if defined(SKELFORM_SKINNING_AVX2)
+#if defined(SKELFORM_HAS_AVX2_KERNELS)
 // LBS with AVX2 (chosen at run time), bit for bit the portable kernel's result like the SSE2
 // kernel: the blend reads the caller's column-major matrices as they were given
 // (JointTransforms::matrices; affine's rows are the same floats), columns 0|1 and 2|3 in one
@@ -254,7 +253,6 @@ bool skin_linear_avx2_any(const Deformable& d, const glm::mat4* matrices, Range 
   if (d.influences == 8) return skin_linear_avx2<8>(d, matrices, range, sink);
   return skin_linear_avx2<0>(d, matrices, range, sink);
 }
-
 #endif
 
 // The portable loop, one instantiation per blend so the per-vertex kernel is a direct call
@@ -287,7 +285,7 @@ bool skin_range(const Deformable& d, const JointTransforms& joints, Blend blend,
   if (blend == Blend::dual_quaternion)
     return skin_vertices<JointDualQuaternion, blend_dual_quaternion>(d, joints.dual_quaternion.data(), range, sink);
   switch (kernel) {
-#if defined(SKELFORM_SKINNING_AVX2)
+#if defined(SKELFORM_HAS_AVX2_KERNELS)
     case LinearKernel::avx2:
       if (cpu_has_avx2()) return skin_linear_avx2_any(d, joints.matrices.data(), range, sink);
       break;
@@ -304,7 +302,7 @@ bool skin_range(const Deformable& d, const JointTransforms& joints, Blend blend,
 
 // The fastest kernel this build and CPU run.
 LinearKernel best_linear_kernel() {
-#if defined(SKELFORM_SKINNING_AVX2)
+#if defined(SKELFORM_HAS_AVX2_KERNELS)
   if (cpu_has_avx2()) return LinearKernel::avx2;
 #endif
 #if defined(__SSE2__)
@@ -347,7 +345,7 @@ bool linear_kernel_available(LinearKernel kernel) {
       return false;
 #endif
     case LinearKernel::avx2:
-#if defined(SKELFORM_SKINNING_AVX2)
+#if defined(SKELFORM_HAS_AVX2_KERNELS)
       return cpu_has_avx2();
 #else
       return false;

@@ -9,6 +9,7 @@
 // characters carry, take the portable loop.
 #pragma once
 
+#include "avx2_lanes.h"
 #include "contact.h"
 #include "cpu.h"
 #include "instance.h"
@@ -19,11 +20,6 @@
 
 #include <cfloat>
 #include <cstdint>
-#include <limits>
-
-#if defined(SKELFORM_HAS_AVX2_KERNELS)
-#  include <immintrin.h>
-#endif
 
 namespace skelform::runtime {
 
@@ -62,19 +58,9 @@ inline void blend_output_portable(uint32_t first, uint32_t end, const BlendInput
 namespace detail {
 
 #if defined(SKELFORM_HAS_AVX2_KERNELS)
-__attribute__((target("avx2"))) inline __m256 gather_vec3_axis(const glm::vec3* p, int axis, __m256i index3) {
-  return _mm256_mask_i32gather_ps(_mm256_setzero_ps(), &p[0].x + axis, index3,
-                                  _mm256_castsi256_ps(_mm256_set1_epi32(-1)), 4);
-}
-
-__attribute__((target("avx2"))) inline void store_vec3_lanes(const __m256 (&lanes)[3], glm::vec3* out) {
-  alignas(32) float values[3][8];
-  for (int axis = 0; axis < 3; ++axis) _mm256_store_ps(values[axis], lanes[axis]);
-  for (int j = 0; j < 8; ++j) out[j] = glm::vec3(values[0][j], values[1][j], values[2][j]);
-}
-
 // blend_output_portable without tangents over [first, first + 8·⌊(end − first)/8⌋), eight at a
-// time; returns where it stopped. Vertices below 2^31 / 3.
+// time; returns where it stopped. The dense arrays must take int32 gather offsets
+// (gather_offsets_fit).
 __attribute__((target("avx2"))) inline uint32_t blend_output_avx2(uint32_t first, uint32_t end, const BlendInput& in,
                                                                   bool normals, const DenseOutput& out) {
   const __m256 zero = _mm256_setzero_ps();
@@ -84,8 +70,7 @@ __attribute__((target("avx2"))) inline uint32_t blend_output_avx2(uint32_t first
     __m256 s = _mm256_loadu_ps(in.weight + v);
     if (in.factor) {
       const __m256i welded = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(in.weld + v));
-      s = _mm256_mul_ps(
-          s, _mm256_mask_i32gather_ps(zero, in.factor, welded, _mm256_castsi256_ps(_mm256_set1_epi32(-1)), 4));
+      s = _mm256_mul_ps(s, avx2::gather_ps(in.factor, welded));
     } else {
       s = _mm256_mul_ps(s, _mm256_set1_ps(1.0f));
     }
@@ -93,15 +78,15 @@ __attribute__((target("avx2"))) inline uint32_t blend_output_avx2(uint32_t first
     const __m256i index3 = _mm256_add_epi32(_mm256_set1_epi32(int(3 * v)), lane3);
     __m256 position[3], normal[3];
     for (int axis = 0; axis < 3; ++axis) {
-      const __m256 l = gather_vec3_axis(in.lbs.positions, axis, index3);
-      const __m256 k = gather_vec3_axis(in.skelform.positions, axis, index3);
+      const __m256 l = avx2::gather_axis(in.lbs.positions, axis, index3);
+      const __m256 k = avx2::gather_axis(in.skelform.positions, axis, index3);
       position[axis] = _mm256_blendv_ps(_mm256_add_ps(l, _mm256_mul_ps(s, _mm256_sub_ps(k, l))), l, lbs_only);
     }
     if (normals) {
       __m256 l[3], n[3];
       for (int axis = 0; axis < 3; ++axis) {
-        l[axis] = gather_vec3_axis(in.lbs.normals, axis, index3);
-        const __m256 k = gather_vec3_axis(in.skelform.normals, axis, index3);
+        l[axis] = avx2::gather_axis(in.lbs.normals, axis, index3);
+        const __m256 k = avx2::gather_axis(in.skelform.normals, axis, index3);
         n[axis] = _mm256_add_ps(l[axis], _mm256_mul_ps(s, _mm256_sub_ps(k, l[axis])));
       }
       // normalize_or: length √((x² + y²) + z²), used where > 1e-30 and finite.
@@ -114,8 +99,8 @@ __attribute__((target("avx2"))) inline uint32_t blend_output_avx2(uint32_t first
         normal[axis] = _mm256_blendv_ps(l[axis], _mm256_div_ps(n[axis], length), usable);
     }
     // All eight read before any is written (out may be in.skelform).
-    store_vec3_lanes(position, out.positions + v);
-    if (normals) store_vec3_lanes(normal, out.normals + v);
+    avx2::store_vec3(position, out.positions + v);
+    if (normals) avx2::store_vec3(normal, out.normals + v);
   }
   return v;
 }
@@ -127,7 +112,7 @@ inline void blend_output(uint32_t first, uint32_t end, const BlendInput& in, boo
                          const DenseOutput& out) {
   uint32_t done = first;
 #if defined(SKELFORM_HAS_AVX2_KERNELS)
-  if (!tangents && cpu_has_avx2() && end <= uint32_t(std::numeric_limits<int32_t>::max() / 3))
+  if (!tangents && cpu_has_avx2() && gather_offsets_fit(end))
     done = detail::blend_output_avx2(first, end, in, normals, out);
 #endif
   blend_output_portable(done, end, in, normals, tangents, out);

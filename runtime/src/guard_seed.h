@@ -10,6 +10,7 @@
 // flags and list (tests/runtime/guard_seed_test.cpp).
 #pragma once
 
+#include "avx2_lanes.h"
 #include "contact.h"
 #include "cpu.h"
 #include "memory.h"
@@ -20,13 +21,9 @@
 
 #include <cmath>
 #include <cstdint>
-#include <limits>
 
 #if defined(__SSE2__)
 #  include <emmintrin.h>
-#endif
-#if defined(SKELFORM_HAS_AVX2_KERNELS)
-#  include <immintrin.h>
 #endif
 
 namespace skelform::runtime {
@@ -46,9 +43,9 @@ struct SeedSkin {
   const float* factor;
 };
 
-// Where the seed goes: x and the moved flags per welded vertex (`moved` with three bytes after
-// the last vertex's: the AVX2 form reads four at a time), and per slot the box planes and the
-// listing.
+// Where the seed goes: x and the moved flags per welded vertex (seed_boxes's AVX2 form reads
+// four bytes at a flag: it runs where `moved` has three after the last vertex's), and per slot
+// the box planes and the listing.
 struct SeedOutput {
   glm::vec3* positions;
   uint8_t* moved;
@@ -128,34 +125,23 @@ inline uint32_t seed_boxes_sse2(uint32_t first, uint32_t end, const TriangleHier
 #endif
 
 #if defined(SKELFORM_HAS_AVX2_KERNELS)
-__attribute__((target("avx2"))) inline __m256 gather_f8(const float* p, __m256i index) {
-  return _mm256_mask_i32gather_ps(_mm256_setzero_ps(), p, index, _mm256_castsi256_ps(_mm256_set1_epi32(-1)), 4);
-}
-
-// The byte at p + index, per lane (the gather reads four: p needs three bytes after its last).
-__attribute__((target("avx2"))) inline __m256i gather_byte8(const uint8_t* p, __m256i index) {
-  const __m256i four = _mm256_mask_i32gather_epi32(_mm256_setzero_si256(), reinterpret_cast<const int*>(p), index,
-                                                   _mm256_set1_epi32(-1), 1);
-  return _mm256_and_si256(four, _mm256_set1_epi32(0xff));
-}
-
 // seed_positions_portable over welded vertices [0, 8·⌊count/8⌋), eight at a time; returns
-// where it stopped. Representatives below 2^31 / 3 (the gathers' offsets are int32 floats).
+// where it stopped. The representatives' arrays must take int32 gather offsets
+// (gather_offsets_fit).
 __attribute__((target("avx2"))) inline uint32_t seed_positions_avx2(uint32_t count, const SeedSkin& skin,
                                                                     const SeedOutput& out, bool& finite) {
-  static_assert(sizeof(glm::vec3) == 3 * sizeof(float), "vec3 is three packed floats");
   const __m256 zero = _mm256_setzero_ps();
   __m256 all_finite = _mm256_castsi256_ps(_mm256_set1_epi32(-1));
   uint32_t v = 0;
   for (; v + 8 <= count; v += 8) {
     const __m256i r = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(skin.representative + v));
     const __m256i r3 = _mm256_add_epi32(r, _mm256_add_epi32(r, r));
-    const __m256 s = _mm256_mul_ps(gather_f8(skin.weight, r), _mm256_loadu_ps(skin.factor + v));
+    const __m256 s = _mm256_mul_ps(avx2::gather_ps(skin.weight, r), _mm256_loadu_ps(skin.factor + v));
     const __m256 keep = _mm256_cmp_ps(s, zero, _CMP_EQ_OQ);  // blend_with_lbs: s == 0 gives L itself
     __m256 l[3], x[3], differs = zero;
     for (int axis = 0; axis < 3; ++axis) {
-      l[axis] = gather_f8(&skin.lbs[0].x + axis, r3);
-      const __m256 k = gather_f8(&skin.skelform[0].x + axis, r3);
+      l[axis] = avx2::gather_axis(skin.lbs, axis, r3);
+      const __m256 k = avx2::gather_axis(skin.skelform, axis, r3);
       x[axis] = _mm256_blendv_ps(_mm256_add_ps(l[axis], _mm256_mul_ps(s, _mm256_sub_ps(k, l[axis]))), l[axis], keep);
       differs = _mm256_or_ps(differs, _mm256_cmp_ps(x[axis], l[axis], _CMP_NEQ_UQ));
     }
@@ -163,19 +149,16 @@ __attribute__((target("avx2"))) inline uint32_t seed_positions_avx2(uint32_t cou
         _mm256_add_ps(_mm256_add_ps(_mm256_add_ps(_mm256_add_ps(_mm256_add_ps(l[0], l[1]), l[2]), x[0]), x[1]), x[2]);
     all_finite = _mm256_and_ps(all_finite, _mm256_cmp_ps(_mm256_sub_ps(sum, sum), zero, _CMP_EQ_OQ));
     const int bits = _mm256_movemask_ps(differs);
-    alignas(32) float lanes[3][8];
-    for (int axis = 0; axis < 3; ++axis) _mm256_store_ps(lanes[axis], x[axis]);
-    for (uint32_t j = 0; j < 8; ++j) {
-      out.positions[v + j] = glm::vec3(lanes[0][j], lanes[1][j], lanes[2][j]);
-      out.moved[v + j] = uint8_t((bits >> j) & 1);
-    }
+    avx2::store_vec3(x, out.positions + v);
+    for (uint32_t j = 0; j < 8; ++j) out.moved[v + j] = uint8_t((bits >> j) & 1);
   }
   if (_mm256_movemask_ps(all_finite) != 0xff) finite = false;
   return v;
 }
 
 // seed_boxes_portable eight slots at a time from `first`, each lane's box as the SSE2 form
-// takes it; returns where it stopped. Vertices below 2^31 / 3.
+// takes it; returns where it stopped. The positions must take int32 gather offsets
+// (gather_offsets_fit), and the moved flags three bytes after the last vertex's.
 __attribute__((target("avx2"))) inline uint32_t seed_boxes_avx2(uint32_t first, uint32_t end,
                                                                 const TriangleHierarchy& h, const SeedOutput& out) {
   const size_t stride = h.slot_stride(), planes_stride = out.boxes->stride;
@@ -188,9 +171,9 @@ __attribute__((target("avx2"))) inline uint32_t seed_boxes_avx2(uint32_t first, 
     for (size_t k = 0; k < 3; ++k) {
       const __m256i c = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(corners + k * stride + i));
       const __m256i c3 = _mm256_add_epi32(c, _mm256_add_epi32(c, c));
-      moved = _mm256_or_si256(moved, gather_byte8(out.moved, c));
+      moved = _mm256_or_si256(moved, avx2::gather_bytes(out.moved, c));
       for (int axis = 0; axis < 3; ++axis) {
-        const __m256 p = gather_f8(&out.positions[0].x + axis, c3);
+        const __m256 p = avx2::gather_axis(out.positions, axis, c3);
         lo[axis] = k == 0 ? p : _mm256_min_ps(p, lo[axis]);
         hi[axis] = k == 0 ? p : _mm256_max_ps(p, hi[axis]);
       }
@@ -208,27 +191,32 @@ __attribute__((target("avx2"))) inline uint32_t seed_boxes_avx2(uint32_t first, 
 
 }  // namespace detail
 
-// Every welded vertex's x and moved flag; false when a sum is not finite (the rest unchanged).
-inline bool seed_positions(uint32_t vertex_count, const SeedSkin& skin, const SeedOutput& out) {
+// Every welded vertex's x and moved flag (all written); false when a sum is not finite.
+// `dense_count`: the length of the arrays the representatives index.
+inline bool seed_positions(uint32_t vertex_count, uint32_t dense_count, const SeedSkin& skin, const SeedOutput& out) {
   bool finite = true;
   uint32_t done = 0;
 #if defined(SKELFORM_HAS_AVX2_KERNELS)
-  if (cpu_has_avx2() && vertex_count <= uint32_t(std::numeric_limits<int32_t>::max() / 3))
+  if (cpu_has_avx2() && gather_offsets_fit(dense_count))
     done = detail::seed_positions_avx2(vertex_count, skin, out, finite);
+#else
+  (void)dense_count;
 #endif
   seed_positions_portable(done, vertex_count, skin, out, finite);
   return finite;
 }
 
-// Every slot's box and listing, from seed_positions' x and flags.
-inline void seed_boxes(uint32_t vertex_count, const TriangleHierarchy& h, const SeedOutput& out) {
+// Every slot's box and listing, from seed_positions' x and flags; `moved_size`: the flags'
+// length (the AVX2 form, which reads three bytes past the last vertex's, needs
+// vertex_count + 3).
+inline void seed_boxes(uint32_t vertex_count, size_t moved_size, const TriangleHierarchy& h, const SeedOutput& out) {
   const uint32_t triangles = uint32_t(h.order.size());
   uint32_t done = 0;
 #if defined(SKELFORM_HAS_AVX2_KERNELS)
-  if (cpu_has_avx2() && vertex_count <= uint32_t(std::numeric_limits<int32_t>::max() / 3))
+  if (cpu_has_avx2() && gather_offsets_fit(vertex_count) && moved_size >= size_t(vertex_count) + 3)
     done = detail::seed_boxes_avx2(0, triangles, h, out);
 #else
-  (void)vertex_count;
+  (void)vertex_count, (void)moved_size;
 #endif
 #if defined(__SSE2__)
   done = detail::seed_boxes_sse2(done, triangles, h, out);

@@ -111,10 +111,10 @@ class GuardPass {
   bool seed_all() {
     const SeedOutput out{ws_.positions.data(), ws_.moved.data(),  &ws_.boxes,
                          ws_.tested.data(),    ws_.wanted.data(), &ws_.test_list};
-    if (!seed_positions(mesh_.vertex_count,
+    if (!seed_positions(mesh_.vertex_count, d_.vertex_count,
                         {rep_, lbs_.positions, skelform_.positions, d_.skelform_weight.data(), ws_.factor.data()}, out))
       return false;
-    seed_boxes(mesh_.vertex_count, h_, out);
+    seed_boxes(mesh_.vertex_count, ws_.moved.size(), h_, out);
     return true;
   }
 
@@ -468,7 +468,7 @@ bool volume_polynomial(const Deformable& d, const ContactMesh& mesh, const Dense
   }
   const glm::dvec3 centre = 0.5 * (glm::dvec3(lo) + glm::dvec3(hi));
   // (Only volume_within reads the norms.)
-  volume_points(mesh.vertex_count, mesh.representative.data(), lbs.positions, skelform.positions,
+  volume_points(mesh.vertex_count, d.vertex_count, mesh.representative.data(), lbs.positions, skelform.positions,
                 d.skelform_weight.data(), ws.factor.data(), centre, ws.volume_base.data(), ws.volume_delta.data(),
                 within_target ? ws.volume_norm.data() : nullptr);
   if (within_target &&

@@ -97,7 +97,7 @@ struct GuardWorkspace {
         clearance_maps(a) {}
   Array<float> factor;             // λ per welded vertex
   Array<glm::vec3> positions;      // x per welded vertex
-  Array<uint8_t> moved;            // per welded vertex: x differs from L
+  Array<uint8_t> moved;            // per welded vertex: x differs from L (+ 3 bytes: guard_seed.h)
   Array<uint8_t> flagged;          // per welded vertex: a corner of an added pair this round
   Array<uint8_t> changed;          // per welded vertex: its λ changed this round
   Array<uint32_t> flagged_list;    // the vertices flagged this round

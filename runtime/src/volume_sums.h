@@ -17,13 +17,10 @@
 #include <glm/vec3.hpp>
 
 #include <cstdint>
-#include <limits>
+#include <cmath>
 
+#include "avx2_lanes.h"
 #include "cpu.h"
-
-#if defined(SKELFORM_HAS_AVX2_KERNELS)
-#  include <immintrin.h>
-#endif
 
 namespace skelform::runtime {
 
@@ -60,17 +57,8 @@ __attribute__((target("avx2"))) inline __m256d det_d4(const D4& a, const D4& b, 
   return _mm256_add_pd(_mm256_add_pd(_mm256_mul_pd(a.x, kx), _mm256_mul_pd(a.y, ky)), _mm256_mul_pd(a.z, kz));
 }
 
-// Gathers with every lane enabled and a zero source (GCC 12 warns that the unmasked forms read
-// an uninitialised one).
-__attribute__((target("avx2"))) inline __m256d gather_d4(const double* p, __m128i index) {
-  return _mm256_mask_i32gather_pd(_mm256_setzero_pd(), p, index, _mm256_castsi256_pd(_mm256_set1_epi64x(-1)), 8);
-}
-__attribute__((target("avx2"))) inline __m128i gather_u4(const int* p, __m128i index) {
-  return _mm_mask_i32gather_epi32(_mm_setzero_si128(), p, index, _mm_set1_epi32(-1), 4);
-}
-
 // The sums over triangles [0, 4·⌊count/4⌋), four at a time; returns where it stopped. Vertex
-// indices must be below 2^31 / 3 (the gathers' offsets are int32 doubles).
+// indices must take int32 gather offsets (gather_offsets_fit).
 __attribute__((target("avx2"))) inline uint32_t volume_sums_avx2(const uint32_t* triangles, uint32_t count,
                                                                  const glm::dvec3* base, const glm::dvec3* delta,
                                                                  const double* norm, VolumeSums& sums) {
@@ -85,11 +73,11 @@ __attribute__((target("avx2"))) inline uint32_t volume_sums_avx2(const uint32_t*
     D4 p[3], m[3];
     __m256d n[3];
     for (int k = 0; k < 3; ++k) {
-      const __m128i v = gather_u4(q + k, rows);
+      const __m128i v = avx2::gather_epi32(q + k, rows);
       const __m128i v3 = _mm_add_epi32(v, _mm_add_epi32(v, v));  // the vertex's first double
-      n[k] = gather_d4(norm, v);
-      p[k] = {gather_d4(b, v3), gather_d4(b + 1, v3), gather_d4(b + 2, v3)};
-      const D4 e = {gather_d4(d, v3), gather_d4(d + 1, v3), gather_d4(d + 2, v3)};
+      n[k] = avx2::gather_pd(norm, v);
+      p[k] = {avx2::gather_pd(b, v3), avx2::gather_pd(b + 1, v3), avx2::gather_pd(b + 2, v3)};
+      const D4 e = {avx2::gather_pd(d, v3), avx2::gather_pd(d + 1, v3), avx2::gather_pd(d + 2, v3)};
       m[k] = {_mm256_add_pd(p[k].x, e.x), _mm256_add_pd(p[k].y, e.y), _mm256_add_pd(p[k].z, e.z)};
     }
     at_zero = _mm256_add_pd(at_zero, det_d4(p[0], p[1], p[2]));
@@ -121,21 +109,19 @@ inline void volume_points_portable(uint32_t first, uint32_t end, const uint32_t*
     base[w] = glm::dvec3(lbs[r]) - centre;
     delta[w] = s * (glm::dvec3(skelform[r]) - glm::dvec3(lbs[r]));
     if (!norm) continue;
-    const glm::dvec3 b = glm::abs(base[w]), c = glm::abs(delta[w]);
-    norm[w] = b.x + b.y + b.z + c.x + c.y + c.z;
+    // (std::fabs clears the sign bit, as the AVX2 form's mask does, of −0 and NaN too.)
+    norm[w] = std::fabs(base[w].x) + std::fabs(base[w].y) + std::fabs(base[w].z) + std::fabs(delta[w].x) +
+              std::fabs(delta[w].y) + std::fabs(delta[w].z);
   }
 }
 
 #if defined(SKELFORM_HAS_AVX2_KERNELS)
 namespace detail {
 
-__attribute__((target("avx2"))) inline __m128 gather_f4(const float* p, __m128i index) {
-  return _mm_mask_i32gather_ps(_mm_setzero_ps(), p, index, _mm_castsi128_ps(_mm_set1_epi32(-1)), 4);
-}
-
 // volume_points_portable over welded vertices [0, 4·⌊count/4⌋), four at a time: the same
 // operations in double on the same widened floats (weight·factor is exact in double), so the
-// same bits. Returns where it stopped. Representatives below 2^31 / 3.
+// same bits. Returns where it stopped. The representatives' arrays must take int32 gather
+// offsets (gather_offsets_fit).
 __attribute__((target("avx2"))) inline uint32_t volume_points_avx2(uint32_t count, const uint32_t* representative,
                                                                    const glm::vec3* lbs, const glm::vec3* skelform,
                                                                    const float* weight, const float* factor,
@@ -148,12 +134,13 @@ __attribute__((target("avx2"))) inline uint32_t volume_points_avx2(uint32_t coun
   for (; w + 4 <= count; w += 4) {
     const __m128i r = _mm_loadu_si128(reinterpret_cast<const __m128i*>(representative + w));
     const __m128i r3 = _mm_add_epi32(r, _mm_add_epi32(r, r));
-    const __m256d s = _mm256_mul_pd(_mm256_cvtps_pd(gather_f4(weight, r)), _mm256_cvtps_pd(_mm_loadu_ps(factor + w)));
+    const __m256d s =
+        _mm256_mul_pd(_mm256_cvtps_pd(avx2::gather_ps(weight, r)), _mm256_cvtps_pd(_mm_loadu_ps(factor + w)));
     alignas(32) double b[3][4], d[3][4];
     __m256d sum = _mm256_setzero_pd();
     for (int axis = 0; axis < 3; ++axis) {
-      const __m256d l = _mm256_cvtps_pd(gather_f4(&lbs[0].x + axis, r3));
-      const __m256d k = _mm256_cvtps_pd(gather_f4(&skelform[0].x + axis, r3));
+      const __m256d l = _mm256_cvtps_pd(avx2::gather_ps(&lbs[0].x + axis, r3));  // 4 lanes
+      const __m256d k = _mm256_cvtps_pd(avx2::gather_ps(&skelform[0].x + axis, r3));
       const __m256d bx = _mm256_sub_pd(l, centre_axis[axis]);
       _mm256_store_pd(b[axis], bx);
       _mm256_store_pd(d[axis], _mm256_mul_pd(s, _mm256_sub_pd(k, l)));
@@ -173,13 +160,16 @@ __attribute__((target("avx2"))) inline uint32_t volume_points_avx2(uint32_t coun
 #endif
 
 // volume_points_portable over every welded vertex, in the fastest form this CPU runs.
-inline void volume_points(uint32_t count, const uint32_t* representative, const glm::vec3* lbs,
+// `dense_count`: the length of the arrays the representatives index.
+inline void volume_points(uint32_t count, uint32_t dense_count, const uint32_t* representative, const glm::vec3* lbs,
                           const glm::vec3* skelform, const float* weight, const float* factor, const glm::dvec3& centre,
                           glm::dvec3* base, glm::dvec3* delta, double* norm) {
   uint32_t done = 0;
 #if defined(SKELFORM_HAS_AVX2_KERNELS)
-  if (cpu_has_avx2() && count <= uint32_t(std::numeric_limits<int32_t>::max() / 3))
+  if (cpu_has_avx2() && gather_offsets_fit(dense_count))
     done = detail::volume_points_avx2(count, representative, lbs, skelform, weight, factor, centre, base, delta, norm);
+#else
+  (void)dense_count;
 #endif
   volume_points_portable(done, count, representative, lbs, skelform, weight, factor, centre, base, delta, norm);
 }
@@ -190,7 +180,7 @@ inline VolumeSums volume_sums(const uint32_t* triangles, uint32_t triangle_count
   VolumeSums sums;
   uint32_t done = 0;
 #if defined(SKELFORM_HAS_AVX2_KERNELS)
-  if (cpu_has_avx2() && vertex_count <= uint32_t(std::numeric_limits<int32_t>::max() / 3))
+  if (cpu_has_avx2() && gather_offsets_fit(vertex_count))
     done = detail::volume_sums_avx2(triangles, triangle_count, base, delta, norm, sums);
 #else
   (void)vertex_count;

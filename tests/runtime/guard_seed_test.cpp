@@ -25,8 +25,8 @@ using namespace skelform::runtime;
 using skelform::test::Torus;
 
 // L, K and the blend's weights on a torus, welded vertex w's representative n − 1 − w (the
-// gathers do not read in order): some vertices at weight 0 (LBS), some with K = L, the rest
-// moved by noise, λ 1, ½ or 0.
+// gathers do not read in order): some vertices at weight 0 (LBS; one with K infinite, one at
+// −0), some with K = L, the rest moved by noise, λ 1, ½ or 0.
 struct Scene {
   Torus torus;
   TriangleHierarchy hierarchy;
@@ -53,6 +53,9 @@ struct Scene {
       weight[r] = w % 7 == 0 ? 0.0f : unit(random);
       factor.push_back(w % 11 == 0 ? 0.0f : (w % 3 == 0 ? 0.5f : 1.0f));
     }
+    // At weight 0 x is L itself: beside an infinite K (not L + 0·∞) and at L = −0 (not +0).
+    skelform[representative[7]].x = std::numeric_limits<float>::infinity();
+    lbs[representative[14]] = skelform[representative[14]] = glm::vec3(-0.0f);
   }
   SeedSkin skin() const { return {representative.data(), lbs.data(), skelform.data(), weight.data(), factor.data()}; }
 };
@@ -107,6 +110,7 @@ TEST_CASE("guard seed: the blend, its moved vertices, the boxes and the listed t
     const float s = scene.weight[r] * scene.factor[w];
     const glm::vec3 expected = s == 0.0f ? scene.lbs[r] : scene.lbs[r] + s * (scene.skelform[r] - scene.lbs[r]);
     CHECK(portable.positions[w] == expected);
+    CHECK(std::memcmp(&portable.positions[w], &expected, sizeof(glm::vec3)) == 0);  // −0 too
     CHECK(bool(portable.moved[w]) == (expected != scene.lbs[r]));
     moved_count += portable.moved[w];
   }
@@ -148,8 +152,8 @@ TEST_CASE("guard seed: every form gives the portable loops' bits, flags and list
 
     std::vector<std::pair<std::string, std::function<void(Seeded&)>>> forms;
     forms.emplace_back("chosen", [&](Seeded& s) {
-      s.finite = seed_positions(n, scene.skin(), s.out());
-      seed_boxes(n, scene.hierarchy, s.out());
+      s.finite = seed_positions(n, n, scene.skin(), s.out());
+      seed_boxes(n, s.moved.size(), scene.hierarchy, s.out());
     });
 #if defined(__SSE2__)
     forms.emplace_back("sse2", [&](Seeded& s) {
@@ -172,9 +176,10 @@ TEST_CASE("guard seed: every form gives the portable loops' bits, flags and list
     else
       MESSAGE("no AVX2 on this CPU: its form is not tested");
 #endif
-    for (auto& [name, run] : forms) {
+    for (auto& form : forms) {
+      const std::string& name = form.first;  // (a structured binding: doctest's lambdas cannot capture it)
       Seeded seeded(scene);
-      run(seeded);
+      form.second(seeded);
       if (not_finite) {  // the caller stops at a position that is not finite: only the flag counts
         CHECK_MESSAGE(!seeded.finite, name);
         continue;

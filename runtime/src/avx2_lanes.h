@@ -1,0 +1,55 @@
+// Lane helpers of the runtime's AVX2 kernels (guard_seed.h, guard_blend.h, volume_sums.h):
+// gathers with every lane enabled and a zero source (GCC 12 warns that the unmasked forms read
+// an uninitialised one), and eight vec3 lanes stored back as vectors. Only where cpu.h compiles
+// AVX2 kernels.
+#pragma once
+
+#include "cpu.h"
+
+#if defined(SKELFORM_HAS_AVX2_KERNELS)
+#  include <glm/vec3.hpp>
+#  include <immintrin.h>
+
+#  include <cstdint>
+
+namespace skelform::runtime::avx2 {
+
+__attribute__((target("avx2"))) inline __m256 gather_ps(const float* p, __m256i index) {
+  return _mm256_mask_i32gather_ps(_mm256_setzero_ps(), p, index, _mm256_castsi256_ps(_mm256_set1_epi32(-1)), 4);
+}
+
+__attribute__((target("avx2"))) inline __m128 gather_ps(const float* p, __m128i index) {
+  return _mm_mask_i32gather_ps(_mm_setzero_ps(), p, index, _mm_castsi128_ps(_mm_set1_epi32(-1)), 4);
+}
+
+__attribute__((target("avx2"))) inline __m256d gather_pd(const double* p, __m128i index) {
+  return _mm256_mask_i32gather_pd(_mm256_setzero_pd(), p, index, _mm256_castsi256_pd(_mm256_set1_epi64x(-1)), 8);
+}
+
+__attribute__((target("avx2"))) inline __m128i gather_epi32(const int* p, __m128i index) {
+  return _mm_mask_i32gather_epi32(_mm_setzero_si128(), p, index, _mm_set1_epi32(-1), 4);
+}
+
+// The byte at p + index, per lane (the gather reads four: p needs three readable bytes after
+// its last).
+__attribute__((target("avx2"))) inline __m256i gather_bytes(const uint8_t* p, __m256i index) {
+  const __m256i four = _mm256_mask_i32gather_epi32(_mm256_setzero_si256(), reinterpret_cast<const int*>(p), index,
+                                                   _mm256_set1_epi32(-1), 1);
+  return _mm256_and_si256(four, _mm256_set1_epi32(0xff));
+}
+
+// Coordinate `axis` of the vec3s p[i] at offsets index3 = 3·i.
+__attribute__((target("avx2"))) inline __m256 gather_axis(const glm::vec3* p, int axis, __m256i index3) {
+  static_assert(sizeof(glm::vec3) == 3 * sizeof(float), "vec3 is three packed floats");
+  return gather_ps(&p[0].x + axis, index3);
+}
+
+// Eight lanes of x, y and z into out[0 .. 8).
+__attribute__((target("avx2"))) inline void store_vec3(const __m256 (&lanes)[3], glm::vec3* out) {
+  alignas(32) float values[3][8];
+  for (int axis = 0; axis < 3; ++axis) _mm256_store_ps(values[axis], lanes[axis]);
+  for (int j = 0; j < 8; ++j) out[j] = glm::vec3(values[0][j], values[1][j], values[2][j]);
+}
+
+}  // namespace skelform::runtime::avx2
+#endif
