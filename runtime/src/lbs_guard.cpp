@@ -438,13 +438,15 @@ void volume_cubic(const ContactMesh& mesh, const glm::dvec3* base, const glm::dv
 }
 
 // Whether the volume at m = 1 (base + delta) is surely no further from `target` than at m = 0
-// (base), in two determinants per triangle where the cubic takes eight (volume_sums.h): by more
-// than the rounding that separates these V(1) and V(0) from the cubic's v[0] + v[1] + v[2] +
-// v[3] and v[0]. All four are sums of the triangles' determinants, each within a few units of
-// double rounding of the product of its corners' L1 norms, the sums (in any order) within
-// their count's; each pair differs by at most 4(T + 32)·2^-52 times the sum of those products,
-// so the two by 8(T + 32)·2^-52 of it. So where it says yes, the cubic's test (volume_share)
-// would say yes too; elsewhere the caller expands the cubic and decides as before.
+// (base), in two determinants per triangle where the cubic takes eight (volume_sums.h). With
+// S the sum over the triangles of the product of their corners' L1 norms: each sum here, V(1)
+// and V(0), and the cubic's V(1) = v[0] + v[1] + v[2] + v[3] and v[0] adds T determinants, each
+// within a few units of double rounding of its triangle's product, and any order of adding T
+// terms is within (T − 1)·2^-53 of their absolute sum. So this V(1) differs from the cubic's by
+// e₁ ≤ 4(T + 32)·2^-52·S and this V(0) from v[0] by e₀ below the same (V(0) was v[0] bit for bit
+// when both summed in triangle order; the lanes sum in another): if |V(1) − target| + e₀ + e₁
+// ≤ |V(0) − target|, the cubic's |V(1) − target| ≤ |v[0] − target| too, and its test
+// (volume_share) says yes. Elsewhere the caller expands the cubic and decides as before.
 // `norm` per welded vertex: |base|₁ + |delta|₁.
 bool volume_within(const ContactMesh& mesh, const glm::dvec3* base, const glm::dvec3* delta, const double* norm,
                    double target) {
