@@ -27,36 +27,26 @@ using skelform::test::Torus;
 // L, K and the blend's weights on a torus, welded vertex w's representative n − 1 − w (the
 // gathers do not read in order): some vertices at weight 0 (LBS; one with K infinite, one at
 // −0), some with K = L, the rest moved by noise, λ 1, ½ or 0.
-struct Scene {
+struct Scene : skelform::test::ReversedSkin {
   Torus torus;
   TriangleHierarchy hierarchy;
-  std::vector<uint32_t> representative;
-  std::vector<glm::vec3> lbs, skelform;
-  std::vector<float> weight, factor;
-  explicit Scene(uint32_t seed)
-      : torus(47, 29, 1.0f, 0.3f, glm::vec3(0.5f, 2.0f, -1.0f)),
+  Scene(const Torus& t, std::mt19937&& random)
+      : ReversedSkin(t.vertex_count(),
+                     [&](uint32_t w, glm::vec3& l, glm::vec3& k, float& weight, float& factor) {
+                       std::normal_distribution<float> noise(0.0f, 0.01f);
+                       l = t.positions[w] + glm::vec3(noise(random), noise(random), noise(random));
+                       k = w % 5 == 0 ? l : l + glm::vec3(noise(random), noise(random), noise(random));
+                       weight = w % 7 == 0 ? 0.0f : std::uniform_real_distribution<float>(0.0f, 1.0f)(random);
+                       factor = w % 11 == 0 ? 0.0f : (w % 3 == 0 ? 0.5f : 1.0f);
+                     }),
+        torus(t),
         hierarchy(
             build_triangle_hierarchy(torus.positions.data(), torus.triangles.data(), torus.triangle_count(), {})) {
-    const uint32_t n = torus.vertex_count();
-    std::mt19937 random(seed);
-    std::normal_distribution<float> noise(0.0f, 0.01f);
-    std::uniform_real_distribution<float> unit(0.0f, 1.0f);
-    representative.resize(n);
-    lbs.resize(n);
-    skelform.resize(n);
-    weight.resize(n);
-    for (uint32_t w = 0; w < n; ++w) {
-      const uint32_t r = n - 1 - w;
-      representative[w] = r;
-      lbs[r] = torus.positions[w] + glm::vec3(noise(random), noise(random), noise(random));
-      skelform[r] = w % 5 == 0 ? lbs[r] : lbs[r] + glm::vec3(noise(random), noise(random), noise(random));
-      weight[r] = w % 7 == 0 ? 0.0f : unit(random);
-      factor.push_back(w % 11 == 0 ? 0.0f : (w % 3 == 0 ? 0.5f : 1.0f));
-    }
     // At weight 0 x is L itself: beside an infinite K (not L + 0·∞) and at L = −0 (not +0).
     skelform[representative[7]].x = std::numeric_limits<float>::infinity();
     lbs[representative[14]] = skelform[representative[14]] = glm::vec3(-0.0f);
   }
+  explicit Scene(uint32_t seed) : Scene(Torus(47, 29, 1.0f, 0.3f, glm::vec3(0.5f, 2.0f, -1.0f)), std::mt19937(seed)) {}
   SeedSkin skin() const { return {representative.data(), lbs.data(), skelform.data(), weight.data(), factor.data()}; }
 };
 

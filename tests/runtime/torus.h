@@ -33,4 +33,22 @@ struct Torus {
   uint32_t triangle_count() const { return uint32_t(triangles.size() / 3); }
 };
 
+// The guard's per-vertex inputs with the torus's vertices as welded vertices: welded vertex w's
+// representative (a dense vertex) is n − 1 − w, so that the kernels' gathers do not read in
+// order; L, K and the skelform weight by dense vertex, λ by welded vertex, each set by
+// `at(w, L, K, weight, λ)`.
+struct ReversedSkin {
+  std::vector<uint32_t> representative;
+  std::vector<glm::vec3> lbs, skelform;
+  std::vector<float> weight, factor;
+  template <class At>
+  ReversedSkin(uint32_t n, At at) : representative(n), lbs(n), skelform(n), weight(n), factor(n) {
+    for (uint32_t w = 0; w < n; ++w) {
+      const uint32_t r = n - 1 - w;
+      representative[w] = r;
+      at(w, lbs[r], skelform[r], weight[r], factor[w]);
+    }
+  }
+};
+
 }  // namespace skelform::test

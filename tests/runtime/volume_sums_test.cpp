@@ -22,33 +22,22 @@ using namespace skelform::runtime;
 using skelform::test::kPi;
 using skelform::test::Torus;
 
-// The guard's inputs for the torus as "L", K = L moved by `move` per vertex; representative w
-// → w reversed, so that the gathers do not read in order.
-struct Points {
-  std::vector<uint32_t> representative;
-  std::vector<glm::vec3> lbs, skelform;
-  std::vector<float> weight, factor;
+// The guard's inputs for the torus as "L", K = L moved by `move` per vertex (ReversedSkin), and
+// the volume test's per-vertex points.
+struct Points : skelform::test::ReversedSkin {
   std::vector<glm::dvec3> base, delta;
   std::vector<double> norm;
-  Points(const Torus& torus, const std::vector<glm::vec3>& move, uint32_t seed) {
-    const uint32_t n = torus.vertex_count();
-    std::mt19937 random(seed);
-    std::uniform_real_distribution<float> unit(0.0f, 1.0f);
-    representative.resize(n);
-    lbs.resize(n);
-    skelform.resize(n);
-    for (uint32_t w = 0; w < n; ++w) {
-      const uint32_t r = n - 1 - w;
-      representative[w] = r;
-      lbs[r] = torus.positions[w];
-      skelform[r] = torus.positions[w] + move[w];
-      weight.push_back(unit(random));
-      factor.push_back(w % 5 == 0 ? 0.5f : 1.0f);
-    }
-    base.resize(n);
-    delta.resize(n);
-    norm.resize(n);
-  }
+  Points(const Torus& torus, const std::vector<glm::vec3>& move, std::mt19937&& random)
+      : ReversedSkin(torus.vertex_count(),
+                     [&](uint32_t w, glm::vec3& l, glm::vec3& k, float& weight, float& factor) {
+                       l = torus.positions[w];
+                       k = torus.positions[w] + move[w];
+                       weight = std::uniform_real_distribution<float>(0.0f, 1.0f)(random);
+                       factor = w % 5 == 0 ? 0.5f : 1.0f;
+                     }),
+        base(torus.vertex_count()),
+        delta(torus.vertex_count()),
+        norm(torus.vertex_count()) {}
 };
 
 [[maybe_unused]] bool same_bits(const void* a, const void* b, size_t bytes) { return std::memcmp(a, b, bytes) == 0; }
@@ -98,7 +87,7 @@ TEST_CASE("volume sums: the AVX2 forms give the portable loops' points bit for b
   std::normal_distribution<float> normal(0.0f, 0.05f);
   std::vector<glm::vec3> move;
   for (uint32_t w = 0; w < torus.vertex_count(); ++w) move.emplace_back(normal(random), normal(random), normal(random));
-  Points fast(torus, move, 11), slow(torus, move, 11);
+  Points fast(torus, move, std::mt19937(11)), slow(torus, move, std::mt19937(11));
   const glm::dvec3 centre(3.1, -39.9, 7.4);
   for (double* norm : {fast.norm.data(), static_cast<double*>(nullptr)}) {
     const uint32_t done = detail::volume_points_avx2(torus.vertex_count(), fast.representative.data(), fast.lbs.data(),
