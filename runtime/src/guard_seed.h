@@ -69,7 +69,8 @@ inline void seed_positions_portable(uint32_t first, uint32_t end, const SeedSkin
   }
 }
 
-// The triangle in `slot` (corners c0, c1, c2) is listed when one of its corners moved.
+// The triangle in `slot` is listed (tested, wanted, on the test list) where `listed`: where one
+// of its corners moved.
 inline void seed_listing(const TriangleHierarchy& h, uint32_t slot, bool listed, const SeedOutput& out) {
   const uint32_t t = h.order[slot];
   out.tested[t] = listed;
