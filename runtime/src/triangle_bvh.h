@@ -5,13 +5,13 @@
 // whose boxes meet it and reports each triangle whose box does, once.
 #pragma once
 
+#include "cpu.h"
 #include "memory.h"
 
 #if defined(__SSE2__)
 #  include <emmintrin.h>
 #endif
-#if defined(__SSE2__) && (defined(__x86_64__) || defined(__i386__)) && (defined(__GNUC__) || defined(__clang__))
-#  define SKELFORM_HIERARCHY_AVX2 1
+#if defined(SKELFORM_HAS_AVX2_KERNELS)
 #  include <immintrin.h>
 #endif
 
@@ -519,7 +519,7 @@ inline LeafLanes leaf_pair_sse2(const LeafPairInput& in, uint32_t first_a, uint3
 }
 #endif
 
-#if defined(SKELFORM_HIERARCHY_AVX2)
+#if defined(SKELFORM_HAS_AVX2_KERNELS)
 __attribute__((target("avx2"))) inline LeafLanes leaf_pair_avx2(const LeafPairInput& in, uint32_t first_a,
                                                                 uint32_t count_a, uint32_t first_b, uint32_t count_b,
                                                                 const float* node_box_b, LeafLanes* masks) {
@@ -680,7 +680,7 @@ inline LeafLanes leaf_self_sse2(const LeafPairInput& in, uint32_t first, uint32_
 }
 #endif
 
-#if defined(SKELFORM_HIERARCHY_AVX2)
+#if defined(SKELFORM_HAS_AVX2_KERNELS)
 __attribute__((target("avx2"))) inline LeafLanes leaf_self_avx2(const LeafPairInput& in, uint32_t first, uint32_t count,
                                                                 const float* node_box, const LeafLanes* shared,
                                                                 LeafLanes* masks) {
@@ -715,12 +715,8 @@ __attribute__((target("avx2"))) inline LeafLanes leaf_self_avx2(const LeafPairIn
 // The fastest kernel this CPU runs: AVX2 where the CPU has it (checked once), else SSE2
 // (x86-64's baseline), else the portable loop. All give the same masks.
 inline LeafPairKernel leaf_pair_kernel() {
-#if defined(SKELFORM_HIERARCHY_AVX2)
-  static const LeafPairKernel chosen = [] {
-    __builtin_cpu_init();
-    return __builtin_cpu_supports("avx2") ? LeafPairKernel(&leaf_pair_avx2) : LeafPairKernel(&leaf_pair_sse2);
-  }();
-  return chosen;
+#if defined(SKELFORM_HAS_AVX2_KERNELS)
+  return cpu_has_avx2() ? LeafPairKernel(&leaf_pair_avx2) : LeafPairKernel(&leaf_pair_sse2);
 #elif defined(__SSE2__)
   return &leaf_pair_sse2;
 #else
@@ -729,12 +725,8 @@ inline LeafPairKernel leaf_pair_kernel() {
 }
 
 inline LeafSelfKernel leaf_self_kernel() {  // as leaf_pair_kernel()
-#if defined(SKELFORM_HIERARCHY_AVX2)
-  static const LeafSelfKernel chosen = [] {
-    __builtin_cpu_init();
-    return __builtin_cpu_supports("avx2") ? LeafSelfKernel(&leaf_self_avx2) : LeafSelfKernel(&leaf_self_sse2);
-  }();
-  return chosen;
+#if defined(SKELFORM_HAS_AVX2_KERNELS)
+  return cpu_has_avx2() ? LeafSelfKernel(&leaf_self_avx2) : LeafSelfKernel(&leaf_self_sse2);
 #elif defined(__SSE2__)
   return &leaf_self_sse2;
 #else

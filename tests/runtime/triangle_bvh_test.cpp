@@ -199,17 +199,16 @@ TEST_CASE("triangle hierarchy: every leaf-pair and leaf-self kernel gives the po
 #if defined(__SSE2__)
   kernels.emplace_back("sse2", &detail::leaf_pair_sse2);
 #endif
-#if defined(SKELFORM_HIERARCHY_AVX2)
-  __builtin_cpu_init();
-  if (__builtin_cpu_supports("avx2")) kernels.emplace_back("avx2", &detail::leaf_pair_avx2);
+#if defined(SKELFORM_HAS_AVX2_KERNELS)
+  if (skelform::runtime::cpu_has_avx2()) kernels.emplace_back("avx2", &detail::leaf_pair_avx2);
 #endif
   kernels.emplace_back("chosen", detail::leaf_pair_kernel());
   std::vector<std::pair<const char*, detail::LeafSelfKernel>> self_kernels{{"portable", &detail::leaf_self_portable}};
 #if defined(__SSE2__)
   self_kernels.emplace_back("sse2", &detail::leaf_self_sse2);
 #endif
-#if defined(SKELFORM_HIERARCHY_AVX2)
-  if (__builtin_cpu_supports("avx2")) self_kernels.emplace_back("avx2", &detail::leaf_self_avx2);
+#if defined(SKELFORM_HAS_AVX2_KERNELS)
+  if (skelform::runtime::cpu_has_avx2()) self_kernels.emplace_back("avx2", &detail::leaf_self_avx2);
 #endif
   self_kernels.emplace_back("chosen", detail::leaf_self_kernel());
   std::map<std::string, size_t> mismatches, self_mismatches;
