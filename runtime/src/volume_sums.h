@@ -13,14 +13,14 @@
 // order of summing T terms is within (T − 1)·2^-53 of their absolute sum).
 #pragma once
 
+#include "avx2_lanes.h"
+#include "cpu.h"
+
 #include <glm/geometric.hpp>
 #include <glm/vec3.hpp>
 
-#include <cstdint>
 #include <cmath>
-
-#include "avx2_lanes.h"
-#include "cpu.h"
+#include <cstdint>
 
 namespace skelform::runtime {
 
