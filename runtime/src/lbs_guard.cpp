@@ -420,21 +420,8 @@ bool ramp_factors(const ContactMesh& mesh, GuardWorkspace& ws) {
 // welded vertex first (GuardWorkspace::volume_base, volume_delta): the triangles then read
 // them in place, each vertex converted and scaled once rather than at each of its triangles.
 void volume_cubic(const ContactMesh& mesh, const glm::dvec3* base, const glm::dvec3* delta, double v[4]) {
-  double v0 = 0.0, v1 = 0.0, v2 = 0.0, v3 = 0.0;
-  for (uint32_t t = 0; t < mesh.triangle_count; ++t) {
-    const uint32_t* q = mesh.triangles.data() + 3 * size_t(t);
-    const glm::dvec3 &a = base[q[0]], &b = base[q[1]], &c = base[q[2]];
-    const glm::dvec3 &da = delta[q[0]], &db = delta[q[1]], &dc = delta[q[2]];
-    // det(a + mα, b + mβ, c + mγ) = (a + mα)·((b + mβ) × (c + mγ)) expanded, each determinant
-    // x·(y × z), with the four cross products it needs computed once: the sums of eight
-    // determinants, bit for bit, in four cross and eight dot products.
-    const glm::dvec3 k0 = glm::cross(b, c), c1 = glm::cross(db, c), c2 = glm::cross(b, dc), k2 = glm::cross(db, dc);
-    v0 += glm::dot(a, k0);
-    v1 += glm::dot(da, k0) + glm::dot(a, c1) + glm::dot(a, c2);
-    v2 += glm::dot(da, c1) + glm::dot(da, c2) + glm::dot(a, k2);
-    v3 += glm::dot(da, k2);
-  }
-  v[0] = v0 / 6.0, v[1] = v1 / 6.0, v[2] = v2 / 6.0, v[3] = v3 / 6.0;
+  volume_cubic_sums(mesh.triangles.data(), mesh.triangle_count, mesh.vertex_count, base, delta, v);
+  v[0] /= 6.0, v[1] /= 6.0, v[2] /= 6.0, v[3] /= 6.0;
 }
 
 // Whether the volume at m = 1 (base + delta) is surely no further from `target` than at m = 0

@@ -11,6 +11,10 @@
 // at the end (the same products per triangle, summed in another order); elsewhere the portable
 // loop. The two differ by the rounding of their sums, which the caller's bound covers (any
 // order of summing T terms is within (T − 1)·2^-53 of their absolute sum).
+//
+// Where that test says no, the guard expands the volume of base + μ·delta as a cubic in μ
+// (volume_cubic_sums): with AVX2 four triangles' terms at a time, added one triangle after the
+// other as the portable loop adds them, so the same bits in either form.
 #pragma once
 
 #include "avx2_lanes.h"
@@ -49,12 +53,35 @@ struct D4 {
   __m256d x, y, z;
 };
 
+// b × c and a·b lane by lane, as glm::cross and glm::dot compute them (products, then the
+// differences; (x + y) + z).
+__attribute__((target("avx2"))) inline D4 cross_d4(const D4& b, const D4& c) {
+  return {_mm256_sub_pd(_mm256_mul_pd(b.y, c.z), _mm256_mul_pd(c.y, b.z)),
+          _mm256_sub_pd(_mm256_mul_pd(b.z, c.x), _mm256_mul_pd(c.z, b.x)),
+          _mm256_sub_pd(_mm256_mul_pd(b.x, c.y), _mm256_mul_pd(c.x, b.y))};
+}
+__attribute__((target("avx2"))) inline __m256d dot_d4(const D4& a, const D4& b) {
+  return _mm256_add_pd(_mm256_add_pd(_mm256_mul_pd(a.x, b.x), _mm256_mul_pd(a.y, b.y)), _mm256_mul_pd(a.z, b.z));
+}
 // det(a, b, c) = a·(b × c) lane by lane, as glm::dot(a, glm::cross(b, c)) computes it.
 __attribute__((target("avx2"))) inline __m256d det_d4(const D4& a, const D4& b, const D4& c) {
-  const __m256d kx = _mm256_sub_pd(_mm256_mul_pd(b.y, c.z), _mm256_mul_pd(c.y, b.z));
-  const __m256d ky = _mm256_sub_pd(_mm256_mul_pd(b.z, c.x), _mm256_mul_pd(c.z, b.x));
-  const __m256d kz = _mm256_sub_pd(_mm256_mul_pd(b.x, c.y), _mm256_mul_pd(c.x, b.y));
-  return _mm256_add_pd(_mm256_add_pd(_mm256_mul_pd(a.x, kx), _mm256_mul_pd(a.y, ky)), _mm256_mul_pd(a.z, kz));
+  return dot_d4(a, cross_d4(b, c));
+}
+// The three corners of four consecutive triangles (`triangles` at the first): their vertices,
+// base (a) and delta (α) there. Vertex indices must take int32 gather offsets
+// (gather_offsets_fit).
+__attribute__((target("avx2"))) inline void gather_corners(const uint32_t* triangles, const glm::dvec3* base,
+                                                           const glm::dvec3* delta, __m128i vertex[3], D4 a[3],
+                                                           D4 alpha[3]) {
+  static_assert(sizeof(glm::dvec3) == 3 * sizeof(double), "dvec3 is three packed doubles");
+  const int* q = reinterpret_cast<const int*>(triangles);
+  const __m128i rows = _mm_setr_epi32(0, 3, 6, 9);  // a corner of four consecutive triangles
+  for (int k = 0; k < 3; ++k) {
+    const __m128i v = vertex[k] = avx2::gather_epi32(q + k, rows);
+    const __m128i v3 = _mm_add_epi32(v, _mm_add_epi32(v, v));  // the vertex's first double
+    a[k] = {avx2::gather_pd(&base[0].x, v3), avx2::gather_pd(&base[0].y, v3), avx2::gather_pd(&base[0].z, v3)};
+    alpha[k] = {avx2::gather_pd(&delta[0].x, v3), avx2::gather_pd(&delta[0].y, v3), avx2::gather_pd(&delta[0].z, v3)};
+  }
 }
 
 // The sums over triangles [0, 4·⌊count/4⌋), four at a time; returns where it stopped. Vertex
@@ -62,23 +89,16 @@ __attribute__((target("avx2"))) inline __m256d det_d4(const D4& a, const D4& b, 
 __attribute__((target("avx2"))) inline uint32_t volume_sums_avx2(const uint32_t* triangles, uint32_t count,
                                                                  const glm::dvec3* base, const glm::dvec3* delta,
                                                                  const double* norm, VolumeSums& sums) {
-  static_assert(sizeof(glm::dvec3) == 3 * sizeof(double), "dvec3 is three packed doubles");
-  const double* b = &base[0].x;
-  const double* d = &delta[0].x;
-  const __m128i rows = _mm_setr_epi32(0, 3, 6, 9);  // a corner of four consecutive triangles
   __m256d at_zero = _mm256_setzero_pd(), at_one = at_zero, scale = at_zero;
   uint32_t t = 0;
   for (; t + 4 <= count; t += 4) {
-    const int* q = reinterpret_cast<const int*>(triangles + 3 * size_t(t));
-    D4 p[3], m[3];
+    __m128i v[3];
+    D4 p[3], e[3], m[3];
+    gather_corners(triangles + 3 * size_t(t), base, delta, v, p, e);
     __m256d n[3];
     for (int k = 0; k < 3; ++k) {
-      const __m128i v = avx2::gather_epi32(q + k, rows);
-      const __m128i v3 = _mm_add_epi32(v, _mm_add_epi32(v, v));  // the vertex's first double
-      n[k] = avx2::gather_pd(norm, v);
-      p[k] = {avx2::gather_pd(b, v3), avx2::gather_pd(b + 1, v3), avx2::gather_pd(b + 2, v3)};
-      const D4 e = {avx2::gather_pd(d, v3), avx2::gather_pd(d + 1, v3), avx2::gather_pd(d + 2, v3)};
-      m[k] = {_mm256_add_pd(p[k].x, e.x), _mm256_add_pd(p[k].y, e.y), _mm256_add_pd(p[k].z, e.z)};
+      n[k] = avx2::gather_pd(norm, v[k]);
+      m[k] = {_mm256_add_pd(p[k].x, e[k].x), _mm256_add_pd(p[k].y, e[k].y), _mm256_add_pd(p[k].z, e[k].z)};
     }
     at_zero = _mm256_add_pd(at_zero, det_d4(p[0], p[1], p[2]));
     at_one = _mm256_add_pd(at_one, det_d4(m[0], m[1], m[2]));
@@ -187,6 +207,74 @@ inline VolumeSums volume_sums(const uint32_t* triangles, uint32_t triangle_count
 #endif
   volume_sums_portable(triangles, done, triangle_count, base, delta, norm, sums);
   return sums;
+}
+
+// The cubic the guard solves where the test above says no (lbs_guard.cpp volume_polynomial):
+// Σ det(a + μα, b + μβ, c + μγ) = v[0] + v[1]·μ + v[2]·μ² + v[3]·μ³ over the triangles [first,
+// end), each triangle's terms added to v in triangle order. Its four cross products are computed
+// once: the sums of eight determinants, in four cross and eight dot products.
+inline void volume_cubic_portable(const uint32_t* triangles, uint32_t first, uint32_t end, const glm::dvec3* base,
+                                  const glm::dvec3* delta, double v[4]) {
+  double v0 = v[0], v1 = v[1], v2 = v[2], v3 = v[3];
+  for (uint32_t t = first; t < end; ++t) {
+    const uint32_t* q = triangles + 3 * size_t(t);
+    const glm::dvec3 &a = base[q[0]], &b = base[q[1]], &c = base[q[2]];
+    const glm::dvec3 &da = delta[q[0]], &db = delta[q[1]], &dc = delta[q[2]];
+    const glm::dvec3 k0 = glm::cross(b, c), c1 = glm::cross(db, c), c2 = glm::cross(b, dc), k2 = glm::cross(db, dc);
+    v0 += glm::dot(a, k0);
+    v1 += glm::dot(da, k0) + glm::dot(a, c1) + glm::dot(a, c2);
+    v2 += glm::dot(da, c1) + glm::dot(da, c2) + glm::dot(a, k2);
+    v3 += glm::dot(da, k2);
+  }
+  v[0] = v0, v[1] = v1, v[2] = v2, v[3] = v3;
+}
+
+#if defined(SKELFORM_HAS_AVX2_KERNELS)
+namespace detail {
+
+// volume_cubic_portable over triangles [0, 4·⌊count/4⌋): four triangles' terms at a time, each
+// lane the portable loop's products and sums for its triangle, then added to v one triangle
+// after the other; so the same bits. Returns where it stopped. Vertex indices must take int32
+// gather offsets (gather_offsets_fit).
+__attribute__((target("avx2"))) inline uint32_t volume_cubic_avx2(const uint32_t* triangles, uint32_t count,
+                                                                  const glm::dvec3* base, const glm::dvec3* delta,
+                                                                  double v[4]) {
+  double v0 = v[0], v1 = v[1], v2 = v[2], v3 = v[3];
+  uint32_t t = 0;
+  for (; t + 4 <= count; t += 4) {
+    __m128i vertex[3];
+    D4 a[3], alpha[3];
+    gather_corners(triangles + 3 * size_t(t), base, delta, vertex, a, alpha);
+    const D4 k0 = cross_d4(a[1], a[2]), c1 = cross_d4(alpha[1], a[2]), c2 = cross_d4(a[1], alpha[2]),
+             k2 = cross_d4(alpha[1], alpha[2]);
+    alignas(32) double terms[4][4];
+    _mm256_store_pd(terms[0], dot_d4(a[0], k0));
+    _mm256_store_pd(terms[1], _mm256_add_pd(_mm256_add_pd(dot_d4(alpha[0], k0), dot_d4(a[0], c1)), dot_d4(a[0], c2)));
+    _mm256_store_pd(terms[2],
+                    _mm256_add_pd(_mm256_add_pd(dot_d4(alpha[0], c1), dot_d4(alpha[0], c2)), dot_d4(a[0], k2)));
+    _mm256_store_pd(terms[3], dot_d4(alpha[0], k2));
+    for (int i = 0; i < 4; ++i) v0 += terms[0][i], v1 += terms[1][i], v2 += terms[2][i], v3 += terms[3][i];
+  }
+  v[0] = v0, v[1] = v1, v[2] = v2, v[3] = v3;
+  return t;
+}
+
+}  // namespace detail
+#endif
+
+// The cubic's coefficients over every triangle (volume_cubic_portable from zero), in the fastest
+// form this CPU runs: the same bits in either.
+inline void volume_cubic_sums(const uint32_t* triangles, uint32_t triangle_count, uint32_t vertex_count,
+                              const glm::dvec3* base, const glm::dvec3* delta, double v[4]) {
+  v[0] = v[1] = v[2] = v[3] = 0.0;
+  uint32_t done = 0;
+#if defined(SKELFORM_HAS_AVX2_KERNELS)
+  if (cpu_has_avx2() && gather_offsets_fit(vertex_count))
+    done = detail::volume_cubic_avx2(triangles, triangle_count, base, delta, v);
+#else
+  (void)vertex_count;
+#endif
+  volume_cubic_portable(triangles, done, triangle_count, base, delta, v);
 }
 
 }  // namespace skelform::runtime

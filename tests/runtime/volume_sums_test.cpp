@@ -1,7 +1,7 @@
-// The LBS guard's volume test kernels (runtime/src/volume_sums.h) on a closed torus whose volume
-// is known: the sums give its volume, scale by the cube of a uniform scaling, and the AVX2
-// forms agree with the portable loops (the points bit for bit, the sums within the rounding
-// bound the guard allows them).
+// The LBS guard's volume kernels (runtime/src/volume_sums.h) on a closed torus whose volume is
+// known: the sums give its volume, scale by the cube of a uniform scaling, the cubic in μ is that
+// scaling's, and the AVX2 forms agree with the portable loops (the points and the cubic bit for
+// bit, the test's sums within the rounding bound the guard allows them).
 #include "runtime/torus.h"
 #include "cpu.h"
 #include "volume_sums.h"
@@ -126,6 +126,49 @@ TEST_CASE("volume sums: the AVX2 forms give the portable loops' points bit for b
   CHECK(lanes.at_zero == (sum[0][0] + sum[0][1]) + (sum[0][2] + sum[0][3]));
   CHECK(lanes.at_one == (sum[1][0] + sum[1][1]) + (sum[1][2] + sum[1][3]));
   CHECK(lanes.scale == (sum[2][0] + sum[2][1]) + (sum[2][2] + sum[2][3]));
+#else
+  MESSAGE("skipped: no AVX2 form on this target");
+#endif
+}
+
+TEST_CASE("volume cubic: a uniform scaling's cubic, and the AVX2 form's bits are the portable loop's") {
+  // base + μ·delta = (1 + μ/4)·base: the volume is V·(1 + μ/4)³, V·(1, 3/4, 3/16, 1/64).
+  const Torus torus(63, 31, 2.0f, 0.5f, glm::vec3(0.0f));  // a tail of 2 after the fours
+  std::vector<glm::dvec3> base, delta;
+  for (const glm::vec3& p : torus.positions) base.emplace_back(p), delta.push_back(0.25 * glm::dvec3(p));
+  double v[4];
+  volume_cubic_sums(torus.triangles.data(), torus.triangle_count(), torus.vertex_count(), base.data(), delta.data(), v);
+  const double exact = 2.0 * kPi * kPi * 2.0 * 0.25;
+  CHECK(v[0] / 6.0 < exact);
+  CHECK(v[0] / 6.0 > 0.99 * exact);
+  const double expected[4] = {1.0, 0.75, 0.1875, 0.015625};
+  for (int i = 1; i < 4; ++i) CHECK(std::fabs(v[i] - expected[i] * v[0]) <= 1e-12 * v[0]);
+
+#if defined(SKELFORM_HAS_AVX2_KERNELS)
+  if (!cpu_has_avx2()) {
+    MESSAGE("skipped: this CPU has no AVX2");
+    return;
+  }
+  // Posed: off the origin and moved unevenly (the points of the test above), a tail of 2.
+  const Torus posed(43, 54, 1.5f, 0.4f, glm::vec3(3.0f, -40.0f, 7.5f));
+  std::mt19937 random(5);
+  std::normal_distribution<float> normal(0.0f, 0.05f);
+  std::vector<glm::vec3> move;
+  for (uint32_t w = 0; w < posed.vertex_count(); ++w) move.emplace_back(normal(random), normal(random), normal(random));
+  Points points(posed, move, std::mt19937(3));
+  volume_points_portable(0, posed.vertex_count(), points.representative.data(), points.lbs.data(),
+                         points.skelform.data(), points.weight.data(), points.factor.data(),
+                         glm::dvec3(3.1, -39.9, 7.4), points.base.data(), points.delta.data(), nullptr);
+  for (const uint32_t count : {posed.triangle_count(), posed.triangle_count() - 2, 7u}) {
+    double lanes[4] = {0.5, -1.0, 2.0, 0.25}, portable[4] = {0.5, -1.0, 2.0, 0.25};  // added to, in order
+    const uint32_t done =
+        detail::volume_cubic_avx2(posed.triangles.data(), count, points.base.data(), points.delta.data(), lanes);
+    CHECK(done == count / 4 * 4);
+    volume_cubic_portable(posed.triangles.data(), done, count, points.base.data(), points.delta.data(), lanes);
+    volume_cubic_portable(posed.triangles.data(), 0, count, points.base.data(), points.delta.data(), portable);
+    CHECK(lanes[0] != 0.5);
+    CHECK(same_bits(lanes, portable, sizeof lanes));
+  }
 #else
   MESSAGE("skipped: no AVX2 form on this target");
 #endif
