@@ -30,6 +30,10 @@ __attribute__((target("avx2"))) inline __m128i gather_epi32(const int* p, __m128
   return _mm_mask_i32gather_epi32(_mm_setzero_si128(), p, index, _mm_set1_epi32(-1), 4);
 }
 
+__attribute__((target("avx2"))) inline __m256i gather_epi32(const int* p, __m256i index) {
+  return _mm256_mask_i32gather_epi32(_mm256_setzero_si256(), p, index, _mm256_set1_epi32(-1), 4);
+}
+
 // The byte at p + index, per lane (the gather reads four: p needs three readable bytes after
 // its last).
 __attribute__((target("avx2"))) inline __m256i gather_bytes(const uint8_t* p, __m256i index) {

@@ -4,6 +4,7 @@
 // the bilaplacian across F, restores the shape along the surface.
 #include "ball_hull.h"
 #include "fair_internal.h"
+#include "hull_block.h"
 
 #include <glm/geometric.hpp>
 #include <glm/vec3.hpp>
@@ -18,40 +19,6 @@
 
 namespace skelform::runtime::fair_detail {
 namespace {
-
-// Flow (4)'s triangle terms are computed a block of triangles at a time (triangle_forces).
-constexpr uint32_t kHullBlock = 64;
-
-// One block of triangles [first, first + count), count ≤ kHullBlock: E_T's inputs per triangle
-// and its interior candidate, side by side (structure of arrays, as interior_lanes4 reads them).
-struct HullBlock {
-  float w0x[kHullBlock], w0y[kHullBlock], w0z[kHullBlock], e1x[kHullBlock], e1y[kHullBlock], e1z[kHullBlock];
-  float e2x[kHullBlock], e2y[kHullBlock], e2z[kHullBlock], r0[kHullBlock], d1[kHullBlock], d2[kHullBlock];
-  float value[kHullBlock], nx[kHullBlock], ny[kHullBlock], nz[kHullBlock];
-  bool inside[kHullBlock];
-  glm::vec3 centroid[kHullBlock];
-  bool usable[kHullBlock];
-};
-
-// The block's centroids and the differences ball_hull_distance takes (zeros where a centroid or
-// a ball centre is not finite: such a triangle is not usable).
-void gather_block(const FairingTopology& topo, const glm::vec3* skeletal, const float* radius, const glm::vec3* x,
-                  const uint32_t* triangles, uint32_t count, HullBlock& b) {
-  for (uint32_t i = 0; i < count; ++i) {
-    const uint32_t* corner = topo.triangle_indices.data() + 3 * size_t{triangles[i]};
-    b.centroid[i] = (x[corner[0]] + x[corner[1]] + x[corner[2]]) / 3.0f;
-    const glm::vec3 &s0 = skeletal[corner[0]], &s1 = skeletal[corner[1]], &s2 = skeletal[corner[2]];
-    b.usable[i] = finite(b.centroid[i]) && finite(s0) && finite(s1) && finite(s2);
-    // The same differences as ball_hull_distance.
-    const glm::vec3 c0(b.usable[i] ? s0 : glm::vec3(0.0f)), p(b.usable[i] ? b.centroid[i] : glm::vec3(0.0f));
-    const glm::vec3 c1(b.usable[i] ? s1 : glm::vec3(0.0f)), c2(b.usable[i] ? s2 : glm::vec3(0.0f));
-    b.w0x[i] = p.x - c0.x, b.w0y[i] = p.y - c0.y, b.w0z[i] = p.z - c0.z;
-    b.e1x[i] = c1.x - c0.x, b.e1y[i] = c1.y - c0.y, b.e1z[i] = c1.z - c0.z;
-    b.e2x[i] = c2.x - c0.x, b.e2y[i] = c2.y - c0.y, b.e2z[i] = c2.z - c0.z;
-    const float rr0 = radius[corner[0]], rr1 = radius[corner[1]], rr2 = radius[corner[2]];
-    b.r0[i] = rr0, b.d1[i] = rr1 - rr0, b.d2[i] = rr2 - rr0;
-  }
-}
 
 // The interior candidates of the whole block in one pass: interior_lane, four at a time with
 // SSE2.
@@ -131,7 +98,8 @@ void hinted_forces(const BlockForces& forces, const uint32_t* hinted, uint32_t h
 void triangle_forces(const FairingTopology& topo, const glm::vec3* skeletal, const float* radius, const glm::vec3* x,
                      const float* rest_level, const uint32_t* triangles, uint32_t count, FairingWorkspace& ws) {
   HullBlock block;
-  gather_block(topo, skeletal, radius, x, triangles, count, block);
+  gather_block({topo.triangle_indices.data(), skeletal, radius, x}, topo.vertex_count, topo.triangle_count, triangles,
+               count, block);
   interior_candidates(count, block);
   // E_T's value and gradient per triangle: the interior candidate where it holds; else, with
   // SSE2, the triangles whose hint names an edge or a vertex try it (hinted_forces), the rest
