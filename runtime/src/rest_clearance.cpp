@@ -1,6 +1,8 @@
 // Rest clearances of neighbouring leaves and the pose's bound on them (rest_clearance.h).
 #include "rest_clearance.h"
 
+#include "avx2_lanes.h"
+#include "cpu.h"
 #include "skin_blend.h"
 
 #include <glm/geometric.hpp>
@@ -164,6 +166,8 @@ RestClearance build_rest_clearance(const TriangleHierarchy& h, const glm::vec3* 
     c.reach[n] = round_up(reach);
   }
   const size_t entries = c.vertices.size();
+  const uint32_t reach = entries == 0 ? 0u : *std::max_element(c.vertices.begin(), c.vertices.end());
+  c.gathers_fit = gather_offsets_fit(entries) && gather_offsets_fit(uint64_t(reach) + 1);
   c.offsets.resize(3 * entries);
   for (size_t n = 0; n < nodes; ++n)
     for (uint32_t k = c.vertex_offsets[n]; k < c.vertex_offsets[n + 1]; ++k) {
@@ -289,15 +293,10 @@ double least_eigenvalue_bound(const glm::dmat3& g) {
   return q - std::sqrt(2.0 / 3.0 * spread);
 }
 
-// The largest |(x_v − x_anchor) − L·offset_v|² over a leaf's entries [begin, end), in float,
-// and the largest |x_v − x_anchor|₁ (for the rounding bound); NaN when a value is NaN.
-struct StraySums {
-  float squared = 0.0f;
-  float spread = 0.0f;
-};
-
-StraySums stray_sums(const RestClearance& c, const glm::vec3* x, uint32_t begin, uint32_t end, const float* l,
-                     const glm::vec3& xa) {
+// stray_sums (rest_clearance.h) with SSE2 four entries at a time, else one at a time.
+detail::StraySums stray_sums_baseline(const RestClearance& c, const glm::vec3* x, uint32_t begin, uint32_t end,
+                                      const float* l, const glm::vec3& xa) {
+  using detail::StraySums;
   const size_t entries = c.vertices.size();
   const float* ox = c.offsets.data();
   const float* oy = ox + entries;
@@ -355,6 +354,57 @@ StraySums stray_sums(const RestClearance& c, const glm::vec3* x, uint32_t begin,
   return sums;
 }
 
+#if defined(SKELFORM_HAS_AVX2_KERNELS)
+// stray_sums eight entries at a time: per entry the baseline's operations (the maxima do not
+// depend on the order their terms come in, and a NaN is flagged apart), the last group
+// repeating the leaf's last entry as the SSE2 loop's does. Entries and welded vertices must take
+// int32 gather offsets (RestClearance::gathers_fit).
+__attribute__((target("avx2"))) detail::StraySums stray_sums_avx2(const RestClearance& c, const glm::vec3* x,
+                                                                  uint32_t begin, uint32_t end, const float* l,
+                                                                  const glm::vec3& xa) {
+  const size_t entries = c.vertices.size();
+  const float* ox = c.offsets.data();
+  const float* oy = ox + entries;
+  const float* oz = oy + entries;
+  const int* v = reinterpret_cast<const int*>(c.vertices.data());
+  __m256 squared = _mm256_setzero_ps(), spread = _mm256_setzero_ps(), nan = _mm256_setzero_ps();
+  const __m256 sign = _mm256_set1_ps(-0.0f);
+  const __m256 anchor[3] = {_mm256_set1_ps(xa.x), _mm256_set1_ps(xa.y), _mm256_set1_ps(xa.z)};
+  __m256 m[9];
+  for (int i = 0; i < 9; ++i) m[i] = _mm256_set1_ps(l[i]);
+  const __m256i lane = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7), last = _mm256_set1_epi32(int(end) - 1);
+  for (uint32_t k = begin; k < end; k += 8) {
+    const __m256i at = _mm256_min_epi32(_mm256_add_epi32(_mm256_set1_epi32(int(k)), lane), last);
+    const __m256i vertex = avx2::gather_epi32(v, at);
+    const __m256i vertex3 = _mm256_add_epi32(vertex, _mm256_add_epi32(vertex, vertex));
+    const __m256 q[3] = {avx2::gather_ps(ox, at), avx2::gather_ps(oy, at), avx2::gather_ps(oz, at)};
+    __m256 d[3], e[3];
+    for (int axis = 0; axis < 3; ++axis) {
+      d[axis] = _mm256_sub_ps(avx2::gather_axis(x, axis, vertex3), anchor[axis]);
+      const __m256 lq =
+          _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(m[3 * axis], q[0]), _mm256_mul_ps(m[3 * axis + 1], q[1])),
+                        _mm256_mul_ps(m[3 * axis + 2], q[2]));
+      e[axis] = _mm256_sub_ps(d[axis], lq);
+    }
+    const __m256 e2 =
+        _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(e[0], e[0]), _mm256_mul_ps(e[1], e[1])), _mm256_mul_ps(e[2], e[2]));
+    const __m256 l1 = _mm256_add_ps(_mm256_add_ps(_mm256_andnot_ps(sign, d[0]), _mm256_andnot_ps(sign, d[1])),
+                                    _mm256_andnot_ps(sign, d[2]));
+    nan = _mm256_or_ps(nan, _mm256_or_ps(_mm256_cmp_ps(e2, e2, _CMP_UNORD_Q), _mm256_cmp_ps(l1, l1, _CMP_UNORD_Q)));
+    squared = _mm256_max_ps(squared, e2);
+    spread = _mm256_max_ps(spread, l1);
+  }
+  alignas(32) float lanes[2][8];
+  _mm256_store_ps(lanes[0], squared);
+  _mm256_store_ps(lanes[1], spread);
+  detail::StraySums sums;
+  for (int i = 0; i < 8; ++i)
+    sums.squared = std::max(sums.squared, lanes[0][i]), sums.spread = std::max(sums.spread, lanes[1][i]);
+  if (_mm256_movemask_ps(nan)) sums.squared = std::numeric_limits<float>::quiet_NaN();
+  return sums;
+}
+#endif
+
 const LeafMap& leaf_map(const RestClearance& c, const ClearancePose& pose, ClearanceMaps& maps, uint32_t n) {
   LeafMap& m = maps.maps[n];
   if (maps.stamps[n] == maps.stamp) return m;
@@ -372,7 +422,8 @@ const LeafMap& leaf_map(const RestClearance& c, const ClearancePose& pose, Clear
     }
   const glm::vec3 xa = pose.positions[anchor];
   m.anchor = xa;
-  const StraySums sums = stray_sums(c, pose.positions, c.vertex_offsets[n], c.vertex_offsets[n + 1], l, xa);
+  const detail::StraySums sums =
+      detail::stray_sums(c, pose.positions, c.vertex_offsets[n], c.vertex_offsets[n + 1], l, xa, cpu_has_avx2());
   // The float loop's rounding: each coordinate of x_v − x_anchor − L·offset_v, with the offset
   // itself rounded, is within a few units u = 2⁻²⁴ of |x_v − x_anchor|₁ + Σ|L_ij|·reach; the
   // bound takes 16 (and the square and root, a few u of the result).
@@ -390,6 +441,16 @@ const LeafMap& leaf_map(const RestClearance& c, const ClearancePose& pose, Clear
 }
 
 }  // namespace
+
+detail::StraySums detail::stray_sums(const RestClearance& c, const glm::vec3* x, uint32_t begin, uint32_t end,
+                                     const float* l, const glm::vec3& xa, bool avx2) {
+#if defined(SKELFORM_HAS_AVX2_KERNELS)
+  if (avx2 && c.gathers_fit) return stray_sums_avx2(c, x, begin, end, l, xa);
+#else
+  (void)avx2;
+#endif
+  return stray_sums_baseline(c, x, begin, end, l, xa);
+}
 
 bool leaves_apart(const RestClearance& c, const ClearancePose& pose, ClearanceMaps& maps, uint32_t a, uint32_t b) {
   // Leaves whose rest boxes meet: each one's D holds for their pairs. Others: their boxes' gap.

@@ -76,6 +76,7 @@ struct RestClearance {
   // sharing no corner with it in a leaf whose rest box meets the leaf's (itself too), rounded
   // down to float, and at most kClearanceCap mean rest edges.
   Array<float> clearance;
+  bool gathers_fit = false;  // entries and welded vertices take int32 gather offsets (cpu.h)
   bool empty() const { return vertex_offsets.empty(); }
 };
 
@@ -129,6 +130,22 @@ struct ClearancePose {
   uint32_t influences;
   const JointAffine* affine;
 };
+
+namespace detail {
+
+// A leaf's strays in the pose: over its entries [begin, end) of RestClearance::vertices, the
+// largest |(x_v − x_anchor) − L·offset_v|² in float (`l`: L by rows) and the largest
+// |x_v − x_anchor|₁ (for the rounding bound); `squared` NaN when a term is NaN (`spread` is then
+// unspecified). `avx2`: eight entries at a time where built and gathers fit, else four (SSE2) or
+// one; the same sums either way (rest_clearance_test).
+struct StraySums {
+  float squared = 0.0f;
+  float spread = 0.0f;
+};
+StraySums stray_sums(const RestClearance& c, const glm::vec3* x, uint32_t begin, uint32_t end, const float* l,
+                     const glm::vec3& xa, bool avx2);
+
+}  // namespace detail
 
 // True when no triangle of leaf `a` meets a triangle of leaf `b` sharing no corner with it, by
 // the bound above. Computes the leaves' maps into `maps` when they are not yet this search's.

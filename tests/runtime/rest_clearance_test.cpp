@@ -6,6 +6,7 @@
 // 170 degrees (where LBS folds it through itself) with and without noise, rigid, scaled by 100.
 #include "rest_clearance.h"
 
+#include "cpu.h"
 #include "skelform/core/triangle_intersection.h"
 #include "skin_blend.h"
 #include "triangle_bvh.h"
@@ -18,6 +19,8 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <iterator>
+#include <limits>
 #include <random>
 #include <vector>
 
@@ -462,4 +465,47 @@ TEST_CASE("rest clearance: two sheets turned against each other about one's cent
   CHECK(unsound_pairs(rest, tri, rest, 1.0f, joints, affine, &rigid) == 0);
   MESSAGE("parted " << parted << " leaf pairs turned, " << rigid << " unturned");
   CHECK(rigid > parted);
+}
+
+TEST_CASE("rest clearance: a leaf's strays are the same in the AVX2 form as in the baseline") {
+  if (!cpu_has_avx2()) {
+    MESSAGE("skipped: no AVX2 form on this target or CPU");
+    return;
+  }
+  Tube tube;
+  add_tube(tube, 30, 16, 0.5f, 0.0f, 6.0f, 0.0f, glm::vec3(0.0f));
+  const size_t triangles = tube.triangles.size() / 3;
+  const TriangleHierarchy h = build_triangle_hierarchy(tube.positions.data(), tube.triangles.data(), triangles, {});
+  const RestClearance c = build_rest_clearance(h, tube.positions.data(), tube.triangles.data(), {});
+  REQUIRE(c.gathers_fit);
+  // A pose: every vertex moved by noise, a map that turns and stretches a little.
+  std::mt19937 random(17);
+  std::normal_distribution<float> noise(0.0f, 0.02f);
+  std::vector<glm::vec3> x;
+  for (const glm::vec3& p : tube.positions)
+    x.emplace_back(p.x + noise(random), p.y + noise(random), p.z + noise(random));
+  const float l[9] = {0.99f, -0.12f, 0.01f, 0.12f, 0.98f, 0.03f, -0.01f, -0.02f, 1.02f};
+  size_t leaves = 0, tails[8] = {};
+  for (uint32_t n = 0; n < h.nodes.size(); ++n) {
+    const uint32_t begin = c.vertex_offsets[n], end = c.vertex_offsets[n + 1];
+    if (h.nodes[n].count == 0 || begin == end) continue;
+    ++leaves;
+    const glm::vec3 xa = x[c.anchor[n]];
+    // The leaf's entries, and its first ones short of its last 1 to 7 (every tail length).
+    for (uint32_t cut = 0; cut < 8 && cut < end - begin; ++cut) {
+      const detail::StraySums lanes = detail::stray_sums(c, x.data(), begin, end - cut, l, xa, true);
+      const detail::StraySums baseline = detail::stray_sums(c, x.data(), begin, end - cut, l, xa, false);
+      CHECK(lanes.squared == baseline.squared);
+      CHECK(lanes.spread == baseline.spread);
+      CHECK(lanes.squared > 0.0f);
+      ++tails[(end - cut - begin) % 8];
+    }
+  }
+  CHECK(leaves > 10);
+  CHECK(std::count(std::begin(tails), std::end(tails), size_t{0}) == 0);
+  // A NaN position in a leaf makes its squared stray NaN in both forms.
+  const uint32_t n = h.leaf[0], begin = c.vertex_offsets[n], end = c.vertex_offsets[n + 1];
+  x[c.vertices[end - 1]].y = std::numeric_limits<float>::quiet_NaN();
+  CHECK(std::isnan(detail::stray_sums(c, x.data(), begin, end, l, x[c.anchor[n]], true).squared));
+  CHECK(std::isnan(detail::stray_sums(c, x.data(), begin, end, l, x[c.anchor[n]], false).squared));
 }
