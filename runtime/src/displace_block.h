@@ -1,6 +1,9 @@
 // displace.cpp's per-vertex work in blocks: the structure-of-arrays scratch of one block of
-// dense vertices, and (for tests) its branch-free formula in each compiled form.
+// dense vertices, and (for tests) its interpolation and its branch-free formula in each form.
 #pragma once
+
+#include <glm/vec2.hpp>
+#include <glm/vec3.hpp>
 
 #include <cstdint>
 
@@ -18,6 +21,14 @@ struct Block {
   float position[3][kBlock], normal[3][kBlock], tangent[3][kBlock];
   int32_t fast[kBlock];  // 1: the main branch holds, the outputs above are the vertex's
 };
+
+// The first stage of a block, over its first `count` vertices: each vertex's bound point q,
+// interpolated normal m and edge e from the corners of its refined triangle (`corners`, 3 per
+// vertex, each < refined_count; the refined buffers padded as instance.h pads them) and its
+// barycentric coordinates (b1, b2). Four vertices at a time at x86-64's baseline, or with
+// `avx2` eight where the build has AVX2 kernels and the CPU runs them; both give the same bits.
+void interpolate_block(bool avx2, const uint32_t* corners, const glm::vec2* barycentric, const glm::vec3* refined,
+                       const glm::vec3* refined_normal, uint32_t refined_count, uint32_t count, Block& b);
 
 // The formula over the block's first `count` vertices, with normals and tangents, as displace.cpp
 // compiles it: four lanes wide (x86-64's baseline), or with `avx2` eight where the build has

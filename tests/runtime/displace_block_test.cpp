@@ -1,8 +1,9 @@
-// displace.cpp's branch-free formula for a block of dense vertices (runtime/src/displace_block.h)
-// in both compiled forms: the baseline's four lanes and, where the CPU has AVX2, eight. The same
-// fast flags and the same bits on a block of random frames with degenerate lanes and a tail,
-// and on the lanes the formula takes, a displaced point and unit vectors where the formula
-// puts them (dss_frame.h's main branch, recomputed in double).
+// displace.cpp's work on a block of dense vertices (runtime/src/displace_block.h) in both of its
+// compiled forms: the baseline's four lanes and, where the CPU has AVX2, eight. The interpolation
+// gives the scalar loop's bits; the branch-free formula the same fast flags and the same bits on
+// a block of random frames with degenerate lanes and a tail, and on the lanes the formula takes,
+// a displaced point and unit vectors where the formula puts them (dss_frame.h's main branch,
+// recomputed in double).
 #include "displace_block.h"
 
 #include "cpu.h"
@@ -14,11 +15,13 @@
 #include <cmath>
 #include <cstring>
 #include <random>
+#include <vector>
 
 namespace {
 
 using skelform::runtime::displace_detail::Block;
 using skelform::runtime::displace_detail::evaluate_block;
+using skelform::runtime::displace_detail::interpolate_block;
 using skelform::runtime::displace_detail::kBlock;
 
 // 61 random lanes (a tail after the groups of eight and four); lane 5's interpolated normal is 0
@@ -82,4 +85,43 @@ TEST_CASE("displacement block: both compiled forms give the same flags and bits,
     CHECK(std::fabs(glm::length(row(baseline.tangent, i)) - 1.0f) < 1e-5f);
   }
   CHECK(fast == count - 2);
+}
+
+TEST_CASE("displacement block: the interpolation's forms give the scalar loop's bits") {
+  // 200 refined vertices (padded by one, as instance.h pads them) and 64 bindings to random
+  // triangles of them, barycentric coordinates inside and a little outside.
+  std::mt19937 random(29);
+  std::normal_distribution<float> normal(0.0f, 1.0f);
+  std::uniform_int_distribution<uint32_t> vertex(0, 199);
+  std::uniform_real_distribution<float> coordinate(-0.1f, 0.7f);
+  std::vector<glm::vec3> refined(201), refined_normal(201);
+  for (uint32_t r = 0; r < 200; ++r) {
+    refined[r] = glm::vec3(normal(random), normal(random), normal(random));
+    refined_normal[r] = glm::vec3(normal(random), normal(random), normal(random));
+  }
+  std::vector<uint32_t> corners;
+  std::vector<glm::vec2> barycentric;
+  for (uint32_t i = 0; i < kBlock; ++i) {
+    corners.insert(corners.end(), {vertex(random), vertex(random), vertex(random)});
+    barycentric.emplace_back(coordinate(random), coordinate(random));
+  }
+  for (const uint32_t count : {kBlock, 61u, 5u}) {
+    for (const bool avx2 : {false, true}) {
+      Block b{};
+      interpolate_block(avx2, corners.data(), barycentric.data(), refined.data(), refined_normal.data(), 200, count, b);
+      bool same = true;
+      for (uint32_t i = 0; i < count; ++i) {
+        const uint32_t* c = corners.data() + 3 * size_t{i};
+        const float b1 = barycentric[i].x, b2 = barycentric[i].y, b0 = 1.0f - b1 - b2;
+        for (int k = 0; k < 3; ++k) {
+          const float q = b0 * refined[c[0]][k] + b1 * refined[c[1]][k] + b2 * refined[c[2]][k];
+          const float m = b0 * refined_normal[c[0]][k] + b1 * refined_normal[c[1]][k] + b2 * refined_normal[c[2]][k];
+          const float e = refined[c[1]][k] - refined[c[0]][k];
+          same = same && std::memcmp(&b.q[k][i], &q, sizeof q) == 0 && std::memcmp(&b.m[k][i], &m, sizeof m) == 0 &&
+                 std::memcmp(&b.e[k][i], &e, sizeof e) == 0;
+        }
+      }
+      CHECK(same);
+    }
+  }
 }
