@@ -206,7 +206,8 @@ void evaluate_skelform(sf_instance& instance, const sf_eval_options& options, bo
   fair_stage(instance, fairing);
   // 4. Refine and displace: skelform's own result.
   displace(d, instance.control.data(), instance.skeletal.data(), instance.control_normal_sums.data(),
-           instance.refined_positions.data(), instance.refined_normals.data(), with_normals, result);
+           instance.refine_lanes.empty() ? nullptr : instance.refine_lanes.data(), instance.refined_positions.data(),
+           instance.refined_normals.data(), with_normals, result);
   // Back from the normalised space to the caller's.
   const bool skin = instance.driver == Driver::skin;
   scale = skin ? instance.joints.scale : 1.0f;

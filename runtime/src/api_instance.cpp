@@ -6,6 +6,7 @@
 // exception into an sf_result plus the instance's message (api_instance.h).
 #include "api_instance.h"
 
+#include "cpu.h"
 #include "handles.h"
 
 #include <cmath>
@@ -54,6 +55,8 @@ void size_control_buffers(sf_instance& instance, const Deformable& d, const Allo
   instance.radius = d.medial_radius.data();
   instance.fairing.allocate(d, allocator);
   instance.control_normal_sums.resize(control_count + kVec3ReadPadding);
+  // (At level 0 every stencil row is one control vertex: the copy would cost what it saves.)
+  if (cpu_has_avx2() && d.subdivision_level > 0) instance.refine_lanes.resize(8 * size_t{control_count});
 }
 
 // The buffers of the refined and dense stages: refinement, the output and the scratch of
@@ -120,6 +123,7 @@ sf_instance::sf_instance(const sf_asset& owner, const Deformable& d)
       fairing(owner.allocator),
       contact(owner.allocator),
       control_normal_sums(owner.allocator),
+      refine_lanes(owner.allocator),
       refined_positions(owner.allocator),
       refined_normals(owner.allocator),
       dense_positions(owner.allocator),

@@ -332,9 +332,9 @@ void displace_detail::evaluate_block(bool avx2, uint32_t count, Block& b) {
 }
 
 void displace(const Deformable& d, const glm::vec3* control, const glm::vec3* skeletal, glm::vec3* control_normal_sums,
-              glm::vec3* refined_positions, glm::vec3* refined_normal_buffer, bool with_normals,
+              float* refine_lanes, glm::vec3* refined_positions, glm::vec3* refined_normal_buffer, bool with_normals,
               const DenseOutput& out) {
-  refine_surface(d, control, skeletal, control_normal_sums, refined_positions, refined_normal_buffer);
+  refine_surface(d, control, skeletal, control_normal_sums, refined_positions, refined_normal_buffer, refine_lanes);
 
   for (const PrimitiveRecord& primitive : d.primitives) {
     const uint32_t first = primitive.first_vertex, end = primitive.first_vertex + primitive.vertex_count;

@@ -210,8 +210,8 @@ FairingSchedule run_fairing_schedule(const FairingTopology& topology, const glm:
                                      float gain, FairingWorkspace& workspace, const FairingRest* rest,
                                      const glm::mat3* frames, uint32_t done = 0, uint32_t calls = UINT32_MAX);
 
-// displace.cpp. Refines the control mesh (refine.h refine_surface, `control_normal_sums` its
-// control-sized scratch) and places every dense vertex from its DSS binding; with
+// displace.cpp. Refines the control mesh (refine.h refine_surface, `control_normal_sums` and
+// `refine_lanes` its control-sized scratch) and places every dense vertex from its DSS binding; with
 // `with_normals`, also normals (and tangents where authored). `control`,
 // `control_normal_sums`, `refined_positions` and `refined_normals` carry kVec3ReadPadding
 // vectors past their vertices (memory.h: read by 16-byte loads).
@@ -221,7 +221,8 @@ struct DenseOutput {
   glm::vec4* tangents;  // may be null when no primitive has tangents
 };
 void displace(const Deformable& d, const glm::vec3* control, const glm::vec3* skeletal, glm::vec3* control_normal_sums,
-              glm::vec3* refined_positions, glm::vec3* refined_normals, bool with_normals, const DenseOutput& out);
+              float* refine_lanes, glm::vec3* refined_positions, glm::vec3* refined_normals, bool with_normals,
+              const DenseOutput& out);
 
 // dense_skinning.cpp. The baselines on the original vertices (dense_joints/dense_weights),
 // LBS by the fastest kernel this build and CPU run. False when a position is not finite (a
@@ -303,6 +304,8 @@ struct sf_instance {
   // baselines) and swaps it into dense_* only once every value is known finite, so a refused
   // evaluation leaves the last output as it was.
   skelform::runtime::Array<glm::vec3> control_normal_sums;
+  // refine.h refine_surface's `lanes`: on AVX2 CPUs, for control meshes refined at least once.
+  skelform::runtime::Array<float> refine_lanes;
   skelform::runtime::Array<glm::vec3> refined_positions;
   skelform::runtime::Array<glm::vec3> refined_normals;
   skelform::runtime::Array<glm::vec3> dense_positions;

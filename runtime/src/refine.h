@@ -39,8 +39,12 @@ namespace skelform::runtime {
 // With `skeletal` (control_vertex_count positions, S indexed like `control`), each control
 // normal sum is first turned onto the medial direction control − skeletal
 // (dss::medial_normal_sums: extension version 2.1); null leaves the area-weighted sums.
+// `lanes`: null, or 8 × control_vertex_count floats of scratch: where the CPU has AVX2 the walk
+// then copies each control vertex's position and normal sum there side by side and reads both
+// as one 32-byte vector (the same sums, bit for bit).
 void refine_surface(const Deformable& deformable, const glm::vec3* control, const glm::vec3* skeletal,
-                    glm::vec3* control_normal_sums, glm::vec3* refined, glm::vec3* refined_normals);
+                    glm::vec3* control_normal_sums, glm::vec3* refined, glm::vec3* refined_normals,
+                    float* lanes = nullptr);
 
 // refine_surface of the rest pose (Deformable::control_positions over skeletal_positions),
 // from padded copies it makes itself: the loader's rest evaluation, once per load (the

@@ -302,6 +302,16 @@ TEST_SUITE("asset") {
     }
     CHECK(std::memcmp(refined.data(), baker_positions.data(), refined.size() * sizeof(glm::vec3)) == 0);
     CHECK(std::memcmp(normals.data(), baker_normals.data(), normals.size() * sizeof(glm::vec3)) == 0);
+    // The same with the position and normal sum of each control vertex side by side (`lanes`,
+    // read as one 32-byte vector where the CPU has AVX2), as an evaluation refines.
+    std::vector<glm::vec3> control(d.control_vertex_count + skelform::runtime::kVec3ReadPadding, glm::vec3(0.0f));
+    std::copy(d.control_positions.begin(), d.control_positions.end(), control.begin());
+    std::vector<glm::vec3> sums(control.size()), lane_refined(refined.size()), lane_normals(normals.size());
+    std::vector<float> lanes_scratch(8 * size_t{d.control_vertex_count});
+    skelform::runtime::refine_surface(d, control.data(), d.skeletal_positions.data(), sums.data(), lane_refined.data(),
+                                      lane_normals.data(), lanes_scratch.data());
+    CHECK(std::memcmp(lane_refined.data(), baker_positions.data(), refined.size() * sizeof(glm::vec3)) == 0);
+    CHECK(std::memcmp(lane_normals.data(), baker_normals.data(), normals.size() * sizeof(glm::vec3)) == 0);
   }
 
   TEST_CASE("a level-2 bake: the runtime refines the rest control mesh and its normals to the baker's bits") {
