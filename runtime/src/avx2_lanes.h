@@ -1,7 +1,7 @@
-// Lane helpers of the runtime's AVX2 kernels (guard_seed.h, guard_blend.h, volume_sums.h):
-// gathers with every lane enabled and a zero source (GCC 12 warns that the unmasked forms read
-// an uninitialised one), and eight vec3 lanes stored back as vectors. Only where cpu.h compiles
-// AVX2 kernels.
+// Lane helpers of the runtime's AVX2 kernels (guard_seed.h, guard_blend.h, volume_sums.h,
+// hull_block.h, displace.cpp, rest_clearance.cpp): gathers with every lane enabled and a zero
+// source (GCC 12 warns that the unmasked forms read an uninitialised one), std::isfinite lane by
+// lane, and eight vec3 lanes stored back as vectors. Only where cpu.h compiles AVX2 kernels.
 #pragma once
 
 #include "cpu.h"
@@ -10,6 +10,7 @@
 #  include <glm/vec3.hpp>
 #  include <immintrin.h>
 
+#  include <cfloat>
 #  include <cstdint>
 
 namespace skelform::runtime::avx2 {
@@ -40,6 +41,12 @@ __attribute__((target("avx2"))) inline __m256i gather_bytes(const uint8_t* p, __
   const __m256i four = _mm256_mask_i32gather_epi32(_mm256_setzero_si256(), reinterpret_cast<const int*>(p), index,
                                                    _mm256_set1_epi32(-1), 1);
   return _mm256_and_si256(four, _mm256_set1_epi32(0xff));
+}
+
+// std::isfinite lane by lane: all ones where |v| ≤ FLT_MAX (none for ±inf and NaN).
+__attribute__((target("avx2"))) inline __m256 finite(__m256 v) {
+  const __m256 magnitude = _mm256_and_ps(v, _mm256_castsi256_ps(_mm256_set1_epi32(0x7fffffff)));
+  return _mm256_cmp_ps(magnitude, _mm256_set1_ps(FLT_MAX), _CMP_LE_OQ);
 }
 
 // Coordinate `axis` of the vec3s p[i] at offsets index3 = 3·i.

@@ -64,18 +64,22 @@ void exact_vertex(const Deformable& d, const glm::vec3* refined, const glm::vec3
 }
 
 #if defined(SKELFORM_HAS_AVX2_KERNELS)
-// interpolate_block's vertices [0, 8·⌊count/8⌋), eight at a time: the corners' coordinates
-// gathered, each lane the scalar loop's operations in its order, so its bits. Returns where it
-// stopped. The refined vertices must take int32 gather offsets (gather_offsets_fit).
+// interpolate_block's vertices [0, 8·⌊count/8⌋), eight at a time: the barycentric pairs split
+// into b1s and b2s, the corners' coordinates gathered, each lane the scalar loop's operations in
+// its order, so its bits. Returns where it stopped. The refined vertices must take int32 gather
+// offsets (gather_offsets_fit).
 __attribute__((target("avx2"))) uint32_t interpolate_avx2(const uint32_t* corners, const glm::vec2* barycentric,
                                                           const glm::vec3* refined, const glm::vec3* refined_normal,
                                                           uint32_t count, Block& b) {
+  static_assert(sizeof(glm::vec2) == 2 * sizeof(float), "vec2 is two packed floats");
   const __m256i rows = _mm256_setr_epi32(0, 3, 6, 9, 12, 15, 18, 21);  // a corner of eight vertices
-  const __m256i pairs = _mm256_setr_epi32(0, 2, 4, 6, 8, 10, 12, 14);
+  const __m256i split = _mm256_setr_epi32(0, 2, 4, 6, 1, 3, 5, 7);     // (b1, b2) pairs to b1s, b2s
   uint32_t i = 0;
   for (; i + 8 <= count; i += 8) {
     const float* bary = &barycentric[i].x;
-    const __m256 b1 = avx2::gather_ps(bary, pairs), b2 = avx2::gather_ps(bary + 1, pairs);
+    const __m256 low = _mm256_permutevar8x32_ps(_mm256_loadu_ps(bary), split);       // vertices 0-3
+    const __m256 high = _mm256_permutevar8x32_ps(_mm256_loadu_ps(bary + 8), split);  // 4-7
+    const __m256 b1 = _mm256_permute2f128_ps(low, high, 0x20), b2 = _mm256_permute2f128_ps(low, high, 0x31);
     const __m256 b0 = _mm256_sub_ps(_mm256_sub_ps(_mm256_set1_ps(1.0f), b1), b2);
     __m256i corner3[3];
     for (int k = 0; k < 3; ++k) {

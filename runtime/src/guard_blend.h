@@ -18,7 +18,6 @@
 #include <glm/vec3.hpp>
 #include <glm/vec4.hpp>
 
-#include <cfloat>
 #include <cstdint>
 
 namespace skelform::runtime {
@@ -92,9 +91,8 @@ __attribute__((target("avx2"))) inline uint32_t blend_output_avx2(uint32_t first
       // normalize_or: length √((x² + y²) + z²), used where > 1e-30 and finite.
       const __m256 length = _mm256_sqrt_ps(_mm256_add_ps(
           _mm256_add_ps(_mm256_mul_ps(n[0], n[0]), _mm256_mul_ps(n[1], n[1])), _mm256_mul_ps(n[2], n[2])));
-      const __m256 usable =
-          _mm256_andnot_ps(lbs_only, _mm256_and_ps(_mm256_cmp_ps(length, _mm256_set1_ps(1e-30f), _CMP_GT_OQ),
-                                                   _mm256_cmp_ps(length, _mm256_set1_ps(FLT_MAX), _CMP_LE_OQ)));
+      const __m256 usable = _mm256_andnot_ps(
+          lbs_only, _mm256_and_ps(_mm256_cmp_ps(length, _mm256_set1_ps(1e-30f), _CMP_GT_OQ), avx2::finite(length)));
       for (int axis = 0; axis < 3; ++axis)
         normal[axis] = _mm256_blendv_ps(l[axis], _mm256_div_ps(n[axis], length), usable);
     }

@@ -14,7 +14,6 @@
 
 #include <cstddef>
 #include <cstdint>
-#include <limits>
 
 namespace skelform::runtime::fair_detail {
 
@@ -62,16 +61,10 @@ inline void gather_block_portable(const HullSources& in, const uint32_t* triangl
 }
 
 #if defined(SKELFORM_HAS_AVX2_KERNELS)
-// std::isfinite lane by lane: |v| ≤ FLT_MAX, false for NaN.
-__attribute__((target("avx2"))) inline __m256 finite_lanes(__m256 v) {
-  const __m256 magnitude = _mm256_and_ps(v, _mm256_castsi256_ps(_mm256_set1_epi32(0x7fffffff)));
-  return _mm256_cmp_ps(magnitude, _mm256_set1_ps(std::numeric_limits<float>::max()), _CMP_LE_OQ);
-}
-
 // gather_block_portable over entries [0, 8·⌊count/8⌋), eight triangles at a time; returns where
 // it stopped. Per lane the same operations: the centroid's sums in glm's order and its division
-// by 3, finiteness (finite_lanes), the unusable lanes' inputs +0 as glm::vec3(0.0f). The control triangles and vertices must take int32 gather offsets
-// (gather_offsets_fit).
+// by 3, finiteness (avx2::finite), the unusable lanes' inputs +0 as glm::vec3(0.0f). The control
+// triangles and vertices must take int32 gather offsets (gather_offsets_fit).
 __attribute__((target("avx2"))) inline uint32_t gather_block_avx2(const HullSources& in, const uint32_t* triangles,
                                                                   uint32_t count, HullBlock& b) {
   const __m256 three = _mm256_set1_ps(3.0f);
@@ -91,10 +84,10 @@ __attribute__((target("avx2"))) inline uint32_t gather_block_avx2(const HullSour
           _mm256_add_ps(avx2::gather_axis(in.x, axis, vertex3[0]), avx2::gather_axis(in.x, axis, vertex3[1])),
           avx2::gather_axis(in.x, axis, vertex3[2]));
       centroid[axis] = _mm256_div_ps(sum, three);
-      usable = _mm256_and_ps(usable, finite_lanes(centroid[axis]));
+      usable = _mm256_and_ps(usable, avx2::finite(centroid[axis]));
       for (int k = 0; k < 3; ++k) {
         ball[k][axis] = avx2::gather_axis(in.skeletal, axis, vertex3[k]);
-        usable = _mm256_and_ps(usable, finite_lanes(ball[k][axis]));
+        usable = _mm256_and_ps(usable, avx2::finite(ball[k][axis]));
       }
     }
     avx2::store_vec3(centroid, b.centroid + i);

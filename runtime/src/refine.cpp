@@ -2,16 +2,18 @@
 // Compiled without loop vectorisation where the compiler has the switch
 // (runtime/CMakeLists.txt): GCC would otherwise vectorise the walk along a stencil with
 // in-order ("fold-left") reductions, shuffling every product into place and adding lane after
-// lane (slower than the scalar code, which keeps its independent sums in flight). With SSE2 (every x86-64) the sums run as one vector per
-// row, x, y and z side by side (vec3_sse.h): one load, one multiply and one add per row and
-// stencil entry where the scalar code has three of each. Each lane does the scalar code's
+// lane (slower than the scalar code, which keeps its independent sums in flight). With SSE2
+// (every x86-64) the sums run as one vector per row, x, y and z side by side (vec3_sse.h): one
+// load, one multiply and one add per row and stencil entry where the scalar code has three of
+// each. Each lane does the scalar code's
 // operations in its order. The stencils (megabytes, read once per frame) are prefetched 512
 // bytes ahead: their loads were the loop's stalls.
 // Positions and normals share the walk: the normals cost one more gather, multiply and add
 // per entry (none with AVX2, which reads a control vertex's position and normal sum as one
 // 32-byte vector from a copy of the two side by side), where normals of the refined triangles
-// would cost a scatter over every refined triangle. Each group's four normals are normalised before they are stored (no second pass
-// over the refined normals). The figures behind these choices: docs/tuning.md.
+// would cost a scatter over every refined triangle. Each group's four normals are normalised
+// before they are stored (no second pass over the refined normals). The figures behind these
+// choices: docs/tuning.md.
 #include "cpu.h"
 #include "prefetch.h"
 #include "refine.h"

@@ -374,10 +374,17 @@ __attribute__((target("avx2"))) detail::StraySums stray_sums_avx2(const RestClea
   for (int i = 0; i < 9; ++i) m[i] = _mm256_set1_ps(l[i]);
   const __m256i lane = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7), last = _mm256_set1_epi32(int(end) - 1);
   for (uint32_t k = begin; k < end; k += 8) {
-    const __m256i at = _mm256_min_epi32(_mm256_add_epi32(_mm256_set1_epi32(int(k)), lane), last);
-    const __m256i vertex = avx2::gather_epi32(v, at);
+    __m256i vertex;
+    __m256 q[3];
+    if (k + 8 <= end) {  // eight consecutive entries
+      vertex = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(v + k));
+      q[0] = _mm256_loadu_ps(ox + k), q[1] = _mm256_loadu_ps(oy + k), q[2] = _mm256_loadu_ps(oz + k);
+    } else {
+      const __m256i at = _mm256_min_epi32(_mm256_add_epi32(_mm256_set1_epi32(int(k)), lane), last);
+      vertex = avx2::gather_epi32(v, at);
+      q[0] = avx2::gather_ps(ox, at), q[1] = avx2::gather_ps(oy, at), q[2] = avx2::gather_ps(oz, at);
+    }
     const __m256i vertex3 = _mm256_add_epi32(vertex, _mm256_add_epi32(vertex, vertex));
-    const __m256 q[3] = {avx2::gather_ps(ox, at), avx2::gather_ps(oy, at), avx2::gather_ps(oz, at)};
     __m256 d[3], e[3];
     for (int axis = 0; axis < 3; ++axis) {
       d[axis] = _mm256_sub_ps(avx2::gather_axis(x, axis, vertex3), anchor[axis]);

@@ -497,20 +497,19 @@ TEST_CASE("triangle hierarchy: two boxes meet as the six comparisons say, NaN bo
   std::uniform_int_distribution<int> lattice(-3, 3), extent(0, 3), pick(0, 31);
   size_t met = 0, apart = 0;
   for (int trial = 0; trial < 20000; ++trial) {
-    float boxes[13];  // two boxes, then a float that a read past them would see
+    std::vector<float> boxes(12);  // two boxes, ending the allocation: AddressSanitizer sees a read past
     for (int box = 0; box < 2; ++box)
       for (int axis = 0; axis < 3; ++axis) {
         const int lo = lattice(random);
         boxes[6 * box + axis] = float(lo), boxes[6 * box + 3 + axis] = float(lo + extent(random));
       }
-    boxes[12] = 0.0f;
     for (float& b : boxes) {
       const int k = pick(random);
       if (k == 0) b = std::numeric_limits<float>::quiet_NaN();
       if (k < 8 && b == 0.0f) b = -0.0f;
     }
-    const float* a = boxes;
-    const float* b = boxes + 6;
+    const float* a = boxes.data();
+    const float* b = boxes.data() + 6;
     const bool expected = a[0] <= b[3] && b[0] <= a[3] && a[1] <= b[4] && b[1] <= a[4] && a[2] <= b[5] && b[2] <= a[5];
     CHECK(skelform::runtime::hierarchy_boxes_meet(a, b) == expected);
     CHECK(skelform::runtime::hierarchy_boxes_meet(b, a) == expected);
