@@ -19,6 +19,7 @@
 
 #include "avx2_lanes.h"
 #include "cpu.h"
+#include "exact_triangles.h"
 
 #include <glm/geometric.hpp>
 #include <glm/vec3.hpp>
@@ -49,17 +50,11 @@ inline void volume_sums_portable(const uint32_t* triangles, uint32_t first, uint
 #if defined(SKELFORM_HAS_AVX2_KERNELS)
 namespace detail {
 
-struct D4 {
-  __m256d x, y, z;
-};
+// Four double 3-vectors and their cross product lane by lane: the guard's triangle test's
+// (exact_triangles.h, glm::cross's operations).
+using D4 = DVec3x4;
 
-// b × c and a·b lane by lane, as glm::cross and glm::dot compute them (products, then the
-// differences; (x + y) + z).
-__attribute__((target("avx2"))) inline D4 cross_d4(const D4& b, const D4& c) {
-  return {_mm256_sub_pd(_mm256_mul_pd(b.y, c.z), _mm256_mul_pd(c.y, b.z)),
-          _mm256_sub_pd(_mm256_mul_pd(b.z, c.x), _mm256_mul_pd(c.z, b.x)),
-          _mm256_sub_pd(_mm256_mul_pd(b.x, c.y), _mm256_mul_pd(c.x, b.y))};
-}
+// a·b lane by lane, as glm::dot computes it: (x + y) + z.
 __attribute__((target("avx2"))) inline __m256d dot_d4(const D4& a, const D4& b) {
   return _mm256_add_pd(_mm256_add_pd(_mm256_mul_pd(a.x, b.x), _mm256_mul_pd(a.y, b.y)), _mm256_mul_pd(a.z, b.z));
 }
