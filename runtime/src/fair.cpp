@@ -197,18 +197,23 @@ fair_detail::Targets rest_targets(const FairingTopology& topology, const Fairing
 
 // The run's active set (FairingWorkspace: the free vertices, their one-rings and the triangles
 // with a free corner), rebuilt only when which vertices are fixed has changed since the last
-// run; then the E_T hints start afresh (those of the triangles the passes skipped are stale).
-// Nothing reads a fixed vertex's per-vertex scratch.
+// run. Nothing reads a fixed vertex's per-vertex scratch but flow (5)'s tracking, which reads
+// the minimisers of a vertex's neighbours: a vertex that becomes fixed forgets its minimiser, so
+// that its free neighbours never track a stale one (the result then depends on the input since
+// the last fresh start only), and one that becomes free searches the grid afresh. The E_T hints
+// of the triangles the passes skipped are stale, but a hint is only tried: it costs a failed try.
 void update_active_set(const FairingTopology& topo, FairingWorkspace& ws) {
   const uint32_t n = topo.vertex_count;
   bool changed = false;
   for (uint32_t v = 0; v < n; ++v) {
     const uint8_t fixed = fair_detail::is_fixed(topo, ws, v) ? 1 : 0;
-    changed = changed || ws.fixed_mask[v] != fixed;
+    if (ws.fixed_mask[v] != fixed) {
+      changed = true;
+      ws.minimiser[v] = std::numeric_limits<uint32_t>::max();
+    }
     ws.fixed_mask[v] = fixed;
   }
   if (!changed) return;
-  std::fill(ws.hull_case.begin(), ws.hull_case.end(), kHullCaseUnknown);
   std::fill(ws.ring_mark.begin(), ws.ring_mark.end(), static_cast<uint8_t>(ws.whole_passes ? 1 : 0));
   ws.active_count = 0;
   for (uint32_t v = 0; v < n; ++v) {

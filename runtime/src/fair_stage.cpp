@@ -27,6 +27,7 @@ FairingState::FairingState(const AllocatorRef& allocator)
       shape(allocator),
       reference_umbrella(allocator),
       mean_edge(allocator),
+      rest_change(allocator),
       fixed(allocator) {}
 
 void FairingState::allocate(const Deformable& d, const AllocatorRef& allocator) {
@@ -38,6 +39,7 @@ void FairingState::allocate(const Deformable& d, const AllocatorRef& allocator) 
   shape.assign(n, glm::vec3(0.0f));
   reference_umbrella.assign(n, glm::vec3(0.0f));
   mean_edge.assign(n, 0.0f);
+  rest_change.assign(n, 0.0f);
   fixed.assign(n, 0);
 }
 
@@ -48,27 +50,55 @@ namespace {
 // kPoseJumpFraction of the vertices since the last evaluation. Rigid motion leaves it
 // unchanged; 30 fps animation changes it at a few thin spots (fast legs); a teleport into
 // another pose, a new animation or a switch of driver changes it over whole limbs. Stores
-// this evaluation's shapes; returns how many vertices changed by more than kPoseJumpShape.
+// this evaluation's shapes, and how far each is from rest's (FairingState::rest_change; the
+// rest umbrella is stored in the rest frame, as the shape is in this one); returns how many
+// vertices changed by more than kPoseJumpShape.
 uint32_t record_local_shapes(sf_instance& instance, const glm::mat3* frames) {
-  const FairingTopology& topo = instance.deformable->fairing_topology;
-  const uint32_t n = instance.deformable->control_vertex_count;
+  const Deformable& d = *instance.deformable;
+  const FairingTopology& topo = d.fairing_topology;
+  const uint32_t n = d.control_vertex_count;
   uint32_t changed = 0;
   for (uint32_t v = 0; v < n; ++v) {
     const uint32_t begin = topo.neighbour_offsets[v], end = topo.neighbour_offsets[v + 1];
     if (begin == end) continue;
-    const glm::vec3 shape = glm::transpose(frames[v]) * instance.fairing.reference_umbrella[v] /
-                            std::max(instance.fairing.mean_edge[v], 1e-30f);
+    const float edge = std::max(instance.fairing.mean_edge[v], 1e-30f);
+    const glm::vec3 shape = glm::transpose(frames[v]) * instance.fairing.reference_umbrella[v] / edge;
     const float change = glm::length(shape - instance.fairing.shape[v]);
     if (!(change <= kPoseJumpShape)) ++changed;  // NaN counts as changed
     instance.fairing.shape[v] = shape;
+    instance.fairing.rest_change[v] = glm::length(shape - d.fairing_rest.umbrella[v] / edge);
   }
   return changed;
+}
+
+// The skin driver's vertices kept out of this evaluation's flows (FairingState::fixed): the
+// rigid ones (Deformable::control_rigid), and the quiet ones, where M's local shape is within
+// kQuietShape of rest's at the vertex and its one-ring and the correction it holds (`offset`:
+// this evaluation warm-starts from it) is under kQuietCorrection, both in mean edges. Every
+// term of the flows is relative to rest (fair.h FairingRest), so there they would move the
+// vertex by about nothing: the fairing's work goes to the blend zones the pose bends. A quiet
+// vertex keeps its small correction, in its frame, until it is bent again.
+void mark_kept_vertices(sf_instance& instance, bool warm) {
+  const Deformable& d = *instance.deformable;
+  const FairingTopology& topo = d.fairing_topology;
+  const FairingState& f = instance.fairing;
+  for (uint32_t v = 0; v < d.control_vertex_count; ++v) {
+    uint8_t kept = d.control_rigid[v];
+    if (!kept) {
+      float shape = f.rest_change[v];
+      for (uint32_t k = topo.neighbour_offsets[v]; k < topo.neighbour_offsets[v + 1]; ++k)
+        shape = std::max(shape, f.rest_change[topo.neighbours[k]]);
+      const float correction = warm ? glm::length(f.offset[v]) : 0.0f;
+      kept = shape < kQuietShape && correction < kQuietCorrection * f.mean_edge[v] ? 1 : 0;  // NaN: not kept
+    }
+    instance.fairing.fixed[v] = kept;
+  }
 }
 
 // This evaluation's fairing parameters: the options' with their defaults filled in, the α and
 // W smoothing acting on the correction (fair.h FairingParams::smoothing_reference), and the
 // vertices the flows leave where the driver put them.
-FairingParams stage_params(sf_instance& instance, const FairStageOptions& options) {
+FairingParams stage_params(sf_instance& instance, const FairStageOptions& options, bool warm) {
   const Deformable& d = *instance.deformable;
   const size_t n = d.control_vertex_count;
   const glm::vec3* skeletal = instance.skeletal.data();
@@ -82,8 +112,10 @@ FairingParams stage_params(sf_instance& instance, const FairStageOptions& option
     params.fixed = instance.fairing.fixed.data();
   } else if (!d.control_rigid.empty()) {
     // The skin driver: what one joint carries alone moves rigidly with it (lbs_guard.h), so
-    // the flows leave it where the skin put it and bend the blend zones between.
-    params.fixed = d.control_rigid.data();
+    // the flows leave it where the skin put it and bend the blend zones between; so they do
+    // where the pose leaves the shape as at rest (mark_kept_vertices).
+    mark_kept_vertices(instance, warm);
+    params.fixed = instance.fairing.fixed.data();
   }
   if (params.iterations == 0) params.iterations = kDefaultFairingIterations;
   if (!(params.fold_step > 0.0f))
@@ -133,7 +165,7 @@ void fair_stage(sf_instance& instance, const FairStageOptions& options) {
   if (warm)
     for (size_t v = 0; v < n; ++v) x[v] += frames[v] * instance.fairing.offset[v];
 
-  const FairingParams params = stage_params(instance, options);
+  const FairingParams params = stage_params(instance, options, warm);
   // A fresh start forgets the tracking schedule too: its result depends on this input only.
   if (!warm) {
     instance.fairing.workspace.search_phase = 0;

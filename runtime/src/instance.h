@@ -150,6 +150,12 @@ constexpr uint32_t kAnnealAfter = 16;        // converging: full steps for this 
 constexpr float kAnnealRate = 0.3f;          // then steps × this per chunk
 constexpr float kPoseJumpFraction = 0.02f;   // of the control vertices: a pose jump
 constexpr float kPoseJumpShape = 0.25f;      // change of a vertex's local shape, in edge lengths, that is a pose jump
+// Skin driver: a control vertex sits out this evaluation's flows (fair_stage.cpp) while the local
+// shape of M at it and its one-ring differs from rest by under kQuietShape mean edges and its
+// correction is under kQuietCorrection mean edges: the flows' terms, all relative to rest, are
+// then about zero there (docs/tuning.md).
+constexpr float kQuietShape = 0.1f;
+constexpr float kQuietCorrection = 0.01f;
 // A fresh start the caller did not ask for (the first evaluation, a pose jump) runs this many
 // chunks (the full steps) in its evaluation, and each next evaluation one more (annealed) until
 // the convergence is done: the frame of a spawn or an animation cut costs about half of what the
@@ -179,7 +185,8 @@ struct FairingState {
   Array<glm::vec3> shape;               // U(M) per vertex in its frame (pose-jump test)
   Array<glm::vec3> reference_umbrella;  // U(M) (FairingParams::smoothing_reference_umbrella)
   Array<float> mean_edge;               // mean one-ring edge length of M (pose-jump test)
-  Array<uint8_t> fixed;                 // handle driver: vertices kept out of the fairing
+  Array<float> rest_change;             // |U(M) − U(M_rest)| per vertex, in its frame, in mean edges
+  Array<uint8_t> fixed;                 // vertices kept out of this evaluation's flows
   float gain = 1.0f;                    // step scale: halves per evaluation while the pose is held
   uint32_t converging = 0;              // iterations of an unfinished convergence (0: none)
   uint32_t last_iterations = 0;         // of the last evaluation (sf_instance_fairing_stats)

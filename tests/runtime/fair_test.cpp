@@ -788,6 +788,50 @@ TEST_CASE("fair: the active set gives the whole mesh's bits relative to rest, wa
 // FAIR_EXPERIMENT is set. Environment: BEND, TWIST, BLEND (scene), FOLD, INTER, SEMI, TAU4, TAU5
 // (params), ITERS, EVERY (report interval), WHERE=1 (rest location of every intersecting pair).
 // e.g. FAIR_EXPERIMENT=1 WHERE=1 ITERS=0 skelform_tests -tc=fair_experiment
+// The skin driver's flows run on the vertices the pose bends (fair_stage.cpp
+// mark_kept_vertices): at the bind pose every control vertex is rigid or quiet and the fairing
+// corrects nothing; bent further at its joint, the capsule's blend zone is faired, warm
+// evaluation after evaluation, and the rigid vertices are always kept.
+TEST_CASE("fair: the skin driver fairs where the pose bends the shape, and nowhere at the bind pose") {
+  const skelform::test::RuntimeModel& model = skelform::test::capsule_model();
+  const skelform::test::InstancePtr instance(model.asset);
+  const Deformable& d = *instance.instance->deformable;
+  const FairingState& fairing = instance.instance->fairing;
+  const size_t n = d.control_vertex_count;
+  REQUIRE(n > 0);
+  const glm::vec3 axis = glm::normalize(glm::vec3(1.0f, 0.3f, 0.2f));
+  auto evaluate = [&](float angle) {
+    const std::vector<glm::mat4> pose = skelform::test::bend_pose(model, 1, angle, axis);
+    REQUIRE(sf_instance_set_joint_matrices(instance, &pose[0][0][0], pose.size(), 0) == SF_OK);
+    REQUIRE(sf_instance_evaluate(instance, nullptr) == SF_OK);
+  };
+  // Vertices kept out of the flows, rigid ones among them, and vertices holding a correction.
+  auto count = [&](size_t& kept, size_t& rigid_kept, size_t& corrected) {
+    kept = rigid_kept = corrected = 0;
+    for (size_t v = 0; v < n; ++v) {
+      kept += fairing.fixed[v];
+      rigid_kept += d.control_rigid[v] && fairing.fixed[v] ? 1 : 0;
+      corrected += fairing.offset[v] != glm::vec3(0.0f) ? 1 : 0;
+    }
+  };
+  size_t kept = 0, rigid_kept = 0, corrected = 0, rigid = 0;
+  for (size_t v = 0; v < n; ++v) rigid += d.control_rigid[v];
+  evaluate(0.0f);
+  count(kept, rigid_kept, corrected);
+  CHECK(kept == n);
+  CHECK(corrected == 0);
+  for (int frame = 1; frame <= 8; ++frame) {
+    CAPTURE(frame);
+    evaluate(0.15f * float(frame));
+    count(kept, rigid_kept, corrected);
+    CHECK(rigid_kept == rigid);
+    if (frame >= 4) {  // 0.6 rad and more: the blend zone bends out of the quiet band
+      CHECK(kept < n);
+      CHECK(corrected > 0);
+    }
+  }
+}
+
 TEST_CASE("fair_experiment" * doctest::skip(std::getenv("FAIR_EXPERIMENT") == nullptr)) {
   auto env = [](const char* name, double fallback) {
     const char* v = std::getenv(name);
