@@ -146,6 +146,7 @@ FairingWorkspace make_fairing_workspace(const FairingTopology& topology, uint32_
   ws.active.assign(n, 0);
   ws.ring.assign(n, 0);
   ws.active_triangles.assign(topology.triangle_count, 0);
+  ws.free_triangle.assign(topology.triangle_count, 0);
   ws.ring_mark.assign(n, 0);
   return ws;
 }
@@ -200,8 +201,10 @@ fair_detail::Targets rest_targets(const FairingTopology& topology, const Fairing
 // run. Nothing reads a fixed vertex's per-vertex scratch but flow (5)'s tracking, which reads
 // the minimisers of a vertex's neighbours: a vertex that becomes fixed forgets its minimiser, so
 // that its free neighbours never track a stale one (the result then depends on the input since
-// the last fresh start only), and one that becomes free searches the grid afresh. The E_T hints
-// of the triangles the passes skipped are stale, but a hint is only tried: it costs a failed try.
+// the last fresh start only), and one that becomes free searches the grid afresh. A triangle
+// that gains a free corner forgets its E_T hint, which the passes left stale (a stale hint
+// that still holds would round as its case rounds, where a fresh search may round otherwise):
+// so the active set gives the bits of passes over the whole mesh (whole_passes).
 void update_active_set(const FairingTopology& topo, FairingWorkspace& ws) {
   const uint32_t n = topo.vertex_count;
   bool changed = false;
@@ -229,8 +232,10 @@ void update_active_set(const FairingTopology& topo, FairingWorkspace& ws) {
   ws.active_triangle_count = 0;
   for (uint32_t t = 0; t < topo.triangle_count; ++t) {
     const uint32_t* corner = topo.triangle_indices.data() + 3 * size_t{t};
-    if (ws.whole_passes || !ws.fixed_mask[corner[0]] || !ws.fixed_mask[corner[1]] || !ws.fixed_mask[corner[2]])
-      ws.active_triangles[ws.active_triangle_count++] = t;
+    const uint8_t free = !ws.fixed_mask[corner[0]] || !ws.fixed_mask[corner[1]] || !ws.fixed_mask[corner[2]];
+    if (free && !ws.free_triangle[t]) ws.hull_case[t] = kHullCaseUnknown;
+    ws.free_triangle[t] = free;
+    if (ws.whole_passes || free) ws.active_triangles[ws.active_triangle_count++] = t;
   }
 }
 

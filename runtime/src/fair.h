@@ -137,6 +137,7 @@ struct FairingWorkspace {
         active(a),
         ring(a),
         active_triangles(a),
+        free_triangle(a),
         ring_mark(a) {}
 
   uint32_t vertex_count = 0;
@@ -174,11 +175,14 @@ struct FairingWorkspace {
   // vertex's step reads U at its one-ring and E_T at its triangles, so each pass covers only
   // what the free vertices need: `active` the free vertices, `ring` those and their one-rings
   // (where U is needed), `active_triangles` the triangles with a free corner (F's terms), each
-  // ascending; nothing reads the scratch of a fixed vertex. Rebuilt when the fixed vertices
-  // change (the handle driver's pinned region can change at every evaluation), which also
-  // clears the E_T hints (hull_case: those of triangles the passes skipped are stale).
+  // ascending; nothing reads the scratch of a fixed vertex but flow (5)'s tracking, which reads
+  // the minimisers of a free vertex's neighbours (a fixed vertex's is forgotten). Rebuilt when
+  // the fixed vertices change (the handle driver's pinned region, the skin driver's quiet
+  // vertices: at every evaluation), which also clears the E_T hints of the triangles that gain
+  // a free corner (hull_case: the passes skipped them, so their hints are stale).
   Array<uint8_t> fixed_mask;                       // vertex_count: is_fixed() of the lists' run; 2 = not built yet
   Array<uint32_t> active, ring, active_triangles;  // vertex_count, vertex_count, triangle_count
+  Array<uint8_t> free_triangle;                    // triangle_count: has a free corner in the lists' run
   uint32_t active_count = 0, ring_count = 0, active_triangle_count = 0;
   Array<uint8_t> ring_mark;  // vertex_count: scratch of the rebuild
   // For tests: `ring` and `active_triangles` cover the whole mesh, as every pass did before the

@@ -16,6 +16,7 @@
 
 #include <algorithm>
 #include <cstring>
+#include <limits>
 
 namespace skelform::runtime {
 
@@ -75,9 +76,13 @@ uint32_t record_local_shapes(sf_instance& instance, const glm::mat3* frames) {
 // rigid ones (Deformable::control_rigid), and the quiet ones, where M's local shape is within
 // kQuietShape of rest's at the vertex and its one-ring and the correction it holds (`offset`:
 // this evaluation warm-starts from it) is under kQuietCorrection, both in mean edges. Every
-// term of the flows is relative to rest (fair.h FairingRest), so there they would move the
-// vertex by about nothing: the fairing's work goes to the blend zones the pose bends. A quiet
-// vertex keeps its small correction, in its frame, until it is bent again.
+// term of the flows is relative to rest (fair.h FairingRest): the shape terms of flow (4) are
+// then about zero. Flow (5), and flow (4)'s E_T term, also see the balls around the vertex,
+// which another part of the body can bring near while the local shape stays as at rest; this
+// test does not, and leaves such contact to the vertices the pose bends and to the contact
+// pass and the guard after the fairing (over the corpus it cost no pairs: docs/tuning.md).
+// The fairing's work goes to the blend zones the pose bends. A quiet vertex keeps its small
+// correction, in its frame, until it is bent again.
 void mark_kept_vertices(sf_instance& instance, bool warm) {
   const Deformable& d = *instance.deformable;
   const FairingTopology& topo = d.fairing_topology;
@@ -85,11 +90,12 @@ void mark_kept_vertices(sf_instance& instance, bool warm) {
   for (uint32_t v = 0; v < d.control_vertex_count; ++v) {
     uint8_t kept = d.control_rigid[v];
     if (!kept) {
-      float shape = f.rest_change[v];
+      // (Each value compared on its own: a NaN anywhere keeps the vertex in the flows.)
+      bool quiet = f.rest_change[v] < kQuietShape;
       for (uint32_t k = topo.neighbour_offsets[v]; k < topo.neighbour_offsets[v + 1]; ++k)
-        shape = std::max(shape, f.rest_change[topo.neighbours[k]]);
+        quiet = quiet && f.rest_change[topo.neighbours[k]] < kQuietShape;
       const float correction = warm ? glm::length(f.offset[v]) : 0.0f;
-      kept = shape < kQuietShape && correction < kQuietCorrection * f.mean_edge[v] ? 1 : 0;  // NaN: not kept
+      kept = quiet && correction < kQuietCorrection * f.mean_edge[v] ? 1 : 0;
     }
     instance.fairing.fixed[v] = kept;
   }
@@ -171,6 +177,9 @@ void fair_stage(sf_instance& instance, const FairStageOptions& options) {
     instance.fairing.workspace.search_phase = 0;
     std::fill(instance.fairing.workspace.hull_case.begin(), instance.fairing.workspace.hull_case.end(),
               kHullCaseUnknown);
+    // (A free vertex that is not finite skips the search and would keep its old minimiser.)
+    std::fill(instance.fairing.workspace.minimiser.begin(), instance.fairing.workspace.minimiser.end(),
+              std::numeric_limits<uint32_t>::max());
   }
   // A fresh start's convergence is spread over evaluations, so that no frame pays for all of
   // it: kFreshStartChunks chunks now, then one chunk per evaluation (warm-started as usual)

@@ -152,8 +152,9 @@ constexpr float kPoseJumpFraction = 0.02f;   // of the control vertices: a pose 
 constexpr float kPoseJumpShape = 0.25f;      // change of a vertex's local shape, in edge lengths, that is a pose jump
 // Skin driver: a control vertex sits out this evaluation's flows (fair_stage.cpp) while the local
 // shape of M at it and its one-ring differs from rest by under kQuietShape mean edges and its
-// correction is under kQuietCorrection mean edges: the flows' terms, all relative to rest, are
-// then about zero there (docs/tuning.md).
+// correction is under kQuietCorrection mean edges: the flows' shape terms, relative to rest,
+// are then about zero there; what it does not see, another part pressing in, is left to the
+// bent vertices, the contact pass and the guard (fair_stage.cpp, docs/tuning.md).
 constexpr float kQuietShape = 0.1f;
 constexpr float kQuietCorrection = 0.01f;
 // A fresh start the caller did not ask for (the first evaluation, a pose jump) runs this many
@@ -184,7 +185,7 @@ struct FairingState {
   Array<glm::vec3> start;               // M before fairing
   Array<glm::vec3> shape;               // U(M) per vertex in its frame (pose-jump test)
   Array<glm::vec3> reference_umbrella;  // U(M) (FairingParams::smoothing_reference_umbrella)
-  Array<float> mean_edge;               // mean one-ring edge length of M (pose-jump test)
+  Array<float> mean_edge;               // mean one-ring edge length of M (pose-jump and quiet tests)
   Array<float> rest_change;             // |U(M) − U(M_rest)| per vertex, in its frame, in mean edges
   Array<uint8_t> fixed;                 // vertices kept out of this evaluation's flows
   float gain = 1.0f;                    // step scale: halves per evaluation while the pose is held
