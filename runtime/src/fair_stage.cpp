@@ -80,7 +80,8 @@ uint32_t record_local_shapes(sf_instance& instance, const glm::mat3* frames) {
 // then about zero. Flow (5), and flow (4)'s E_T term, also see the balls around the vertex,
 // which another part of the body can bring near while the local shape stays as at rest; this
 // test does not, and leaves such contact to the vertices the pose bends and to the contact
-// pass and the guard after the fairing (over the corpus it cost no pairs: docs/tuning.md).
+// pass and the guard after the fairing (over the corpus the pairs moved within their spread:
+// docs/tuning.md).
 // The fairing's work goes to the blend zones the pose bends. A quiet vertex keeps its small
 // correction, in its frame, until it is bent again.
 void mark_kept_vertices(sf_instance& instance, bool warm) {
