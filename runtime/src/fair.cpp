@@ -125,7 +125,7 @@ FairingWorkspace make_fairing_workspace(const FairingTopology& topology, uint32_
   ws.smoothing_weight.assign(n, 0.0f);
   ws.tangential_weight.assign(n, 0.0f);
   ws.force_direction.assign(n, glm::vec3(0.0f));
-  ws.cell_offsets.assign(cells + 1, 0);
+  ws.cell_offsets.assign(cells + 2, 0);
   ws.cell_vertices.assign(n, 0);
   ws.vertex_cell.assign(n, 0);
   ws.cell_x.assign(n + 3, 0.0f);

@@ -151,8 +151,9 @@ struct FairingWorkspace {
   Array<float> smoothing_weight;     // α (flow 4) or W (flow 5) per vertex
   Array<float> tangential_weight;    // flow (4)'s weight of V per vertex
   Array<glm::vec3> force_direction;  // F/|F| per vertex (flow 4), 0 where F = 0
-  Array<uint32_t> cell_offsets;      // grid_size³ + 1: skeletal vertices per cell (CSR; a row
-                                     // of cells along x is one run of slots)
+  Array<uint32_t> cell_offsets;      // grid_size³ + 2: skeletal vertices per cell (CSR in the
+                                     // first grid_size³ + 1; a row of cells along x is one run
+                                     // of slots; the last is build_grid's scratch)
   Array<uint32_t> cell_vertices;     // vertex_count
   Array<uint32_t> vertex_cell;       // vertex_count: scratch for the bucket sort
   // S and d² of cell_vertices[k] at k (vertex_count + 3: flow (5)'s search reads 4 at a time)

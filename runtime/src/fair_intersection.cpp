@@ -63,8 +63,13 @@ Grid build_grid(const FairingTopology& topo, const glm::vec3* skeletal, const fl
   const int ring = rings < static_cast<float>(size) ? std::max(1, static_cast<int>(rings)) : size;
   grid.ring[0] = grid.ring[1] = grid.ring[2] = ring;
 
+  // Counting sort, stable (each cell lists its vertices in ascending order: determinism of ties
+  // in the minimum below), in one pass over the cells: counts at c + 2, their running sum puts
+  // the start of cell c at c + 1, and placing the vertices moves each to the start of c + 1.
+  // The grid has several cells per vertex, so the passes over the cells are most of the work.
   const size_t cell_count = size_t(size) * size * size;
-  std::fill(ws.cell_offsets.begin(), ws.cell_offsets.begin() + cell_count + 1, 0u);
+  uint32_t* offsets = ws.cell_offsets.data();
+  std::fill(offsets, offsets + cell_count + 2, 0u);
   const uint32_t none = std::numeric_limits<uint32_t>::max();
   for (uint32_t v = 0; v < vertex_count; ++v) {
     const glm::vec3& s = skeletal[v];
@@ -77,19 +82,19 @@ Grid build_grid(const FairingTopology& topo, const glm::vec3* skeletal, const fl
                          size +
                      size_t(cell_coordinate(s.x, grid.origin.x, grid.inverse_cell.x, size));
     ws.vertex_cell[v] = static_cast<uint32_t>(c);
-    ++ws.cell_offsets[c + 1];
+    ++offsets[c + 2];
   }
-  // Counts to offsets. A row of cells (z, y) is then one run of slots: field_at scans a
-  // neighbourhood row as cell_offsets[first cell] .. cell_offsets[last cell + 1].
-  for (size_t c = 0; c < cell_count; ++c) ws.cell_offsets[c + 1] += ws.cell_offsets[c];
-  // Counting sort, stable: each cell lists its vertices in ascending order (determinism of
-  // ties in the minimum below).
+  uint32_t run = 0;
+  for (size_t c = 2; c < cell_count + 2; ++c) {
+    run += offsets[c];
+    offsets[c] = run;
+  }
   for (uint32_t v = 0; v < vertex_count; ++v) {
     if (ws.vertex_cell[v] == none) continue;
-    ws.cell_vertices[ws.cell_offsets[ws.vertex_cell[v]]++] = v;
+    ws.cell_vertices[offsets[ws.vertex_cell[v] + 1]++] = v;
   }
-  for (size_t c = cell_count; c > 0; --c) ws.cell_offsets[c] = ws.cell_offsets[c - 1];
-  ws.cell_offsets[0] = 0;
+  // Now cell c holds slots offsets[c] .. offsets[c + 1], and a row of cells (z, y) is one run of
+  // slots: field_at scans a neighbourhood row as offsets[first cell] .. offsets[last cell + 1].
   // The balls in cell order, structure of arrays: slot_minimum's candidates side by side; and
   // per row of cells along x and per layer of rows the largest d² (field_at's bounds on what a
   // row or a layer can hold).

@@ -93,8 +93,8 @@ void mark_kept_vertices(sf_instance& instance, bool warm) {
     if (!kept) {
       // (Each value compared on its own: a NaN anywhere keeps the vertex in the flows.)
       bool quiet = f.rest_change[v] < kQuietShape;
-      for (uint32_t k = topo.neighbour_offsets[v]; k < topo.neighbour_offsets[v + 1]; ++k)
-        quiet = quiet && f.rest_change[topo.neighbours[k]] < kQuietShape;
+      for (uint32_t k = topo.neighbour_offsets[v]; quiet && k < topo.neighbour_offsets[v + 1]; ++k)
+        quiet = f.rest_change[topo.neighbours[k]] < kQuietShape;
       const float correction = warm ? glm::length(f.offset[v]) : 0.0f;
       kept = quiet && correction < kQuietCorrection * f.mean_edge[v] ? 1 : 0;
     }
