@@ -430,7 +430,8 @@ TEST_CASE("triangle hierarchy: every triangle in one leaf of 1 to kLeafTriangles
 }
 
 TEST_CASE("triangle hierarchy: a leaf's refit takes the extremes std::min and std::max take in order") {
-  // plane_extreme against the loop it replaced, on every count a leaf can have: random values,
+  // plane_extreme, and the AVX2 leaf box where the CPU has it, against the loop they replaced,
+  // on every count a leaf can have: random values,
   // a NaN first (the result is NaN), NaNs later (passed over), infinities, and signed zeros
   // (either zero may be kept: equal as floats).
   std::mt19937 random(20261128);
@@ -461,6 +462,24 @@ TEST_CASE("triangle hierarchy: a leaf's refit takes the extremes std::min and st
                              << lowest << " / " << highest);
           return;
         }
+#if defined(SKELFORM_HAS_AVX2_KERNELS)
+        if (skelform::runtime::cpu_has_avx2()) {
+          // The AVX2 leaf box reads whole groups of eight past the leaf: slots holding values
+          // that would win the minimum or the maximum (and NaNs), which it must leave out.
+          const size_t stride = count + skelform::runtime::kLeafTriangles;
+          std::vector<float> planes(6 * stride);
+          for (size_t k = 0; k < 6; ++k)
+            for (size_t i = 0; i < stride; ++i)
+              planes[k * stride + i] = i < count ? p[i] : (i % 3 == 0 ? -1e30f : (i % 3 == 1 ? 1e30f : nan));
+          float box[6];
+          skelform::runtime::detail::leaf_box_avx2(planes.data(), stride, 0, count, box);
+          for (int k = 0; k < 6; ++k)
+            if (!same(box[k], k < 3 ? lowest : highest)) {
+              FAIL_CHECK("AVX2, kind " << kind << ", count " << count << ", plane " << k << ": " << box[k]);
+              return;
+            }
+        }
+#endif
         ++compared;
       }
   CHECK(compared == 5u * skelform::runtime::kLeafTriangles * 50u);
