@@ -246,7 +246,9 @@ class GuardPass {
     const uint32_t* ct = tri_ + 3 * size_t(t);
     const uint32_t* cs = tri_ + 3 * size_t(s);
     const glm::vec3* x = ws_.positions.data();
-    if (!intersect_(widen(x[ct[0]]), widen(x[ct[1]]), widen(x[ct[2]]), widen(x[cs[0]]), widen(x[cs[1]]),
+    // (Most pairs a plane separates by far more than rounding: the exact test's verdict too.)
+    if (triangles_surely_apart(x[ct[0]], x[ct[1]], x[ct[2]], x[cs[0]], x[cs[1]], x[cs[2]]) ||
+        !intersect_(widen(x[ct[0]]), widen(x[ct[1]]), widen(x[ct[2]]), widen(x[cs[0]]), widen(x[cs[1]]),
                     widen(x[cs[2]])))
       return;
     // The model has this pair as made: neither the guard nor the contact pass acts on it.

@@ -21,7 +21,8 @@
 // half-way from its neighbours' smallest to 1), and the lowered factors are checked again.
 //
 // The triangle test is geometry::triangles_intersect (double precision, the metric's own; with
-// AVX, exact_triangles.h's form of it, which gives the same verdict);
+// AVX, exact_triangles.h's form of it, which gives the same verdict), after a float test of the
+// face planes that answers only where that verdict is surely "apart" (triangles_surely_apart);
 // the broad phase is the welded mesh's triangle hierarchy (triangle_bvh.h): the first round
 // meets it with itself, refitted to the boxes at x, and passes over the leaf pairs a bound from
 // the rest pose shows apart (rest_clearance.h, with the caller's joints); later rounds query it

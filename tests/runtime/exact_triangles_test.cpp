@@ -4,6 +4,8 @@
 // input.
 #include "exact_triangles.h"
 
+#include "skelform/core/triangle_intersection.h"
+
 #include <doctest/doctest.h>
 #include <glm/vec3.hpp>
 
@@ -81,4 +83,79 @@ TEST_CASE("exact_triangle_test: every form gives geometry::triangles_intersect's
   CHECK(met > 20000u);
   CHECK(apart > 20000u);
   MESSAGE("exact_triangle_test: " << met << " meeting and " << apart << " apart, the same verdict in every form");
+}
+
+TEST_CASE("triangles_surely_apart: only where geometry::triangles_intersect says apart") {
+  // The guard's float pre-test (exact_triangles.h) may only say "apart" where the exact test
+  // does, in every form this build has, on the guard's inputs (floats): random, lattice,
+  // near-coplanar and nearly touching pairs, overflowing, underflowing, mixed-scale and
+  // non-finite ones. And it must decide most of the pairs a plane separates by a margin, or it
+  // saves nothing.
+  using skelform::runtime::triangles_surely_apart;
+  using skelform::runtime::detail::triangles_surely_apart_portable;
+  std::mt19937 random(20261129);
+  std::uniform_real_distribution<float> unit(-1.0f, 1.0f);
+  std::uniform_int_distribution<int> small(-2, 2);
+  std::uniform_int_distribution<int> pick(0, 17), exponent(-70, 70);
+  const float inf = std::numeric_limits<float>::infinity(), nan = std::numeric_limits<float>::quiet_NaN();
+  uint32_t sure = 0, exact_apart = 0, lifted_sure = 0, lifted = 0;
+  for (int kind = 0; kind < 8; ++kind)
+    for (int i = 0; i < 40000; ++i) {
+      std::array<glm::vec3, 6> c;
+      for (size_t k = 0; k < 6; ++k) {
+        glm::vec3& v = c[k];
+        switch (kind) {
+          case 0:  // uniform in a box
+            v = glm::vec3(unit(random), unit(random), unit(random));
+            break;
+          case 1:  // a small integer lattice: coplanar pairs, shared corners and edges, ties
+            v = glm::vec3(float(small(random)), float(small(random)), float(small(random)));
+            break;
+          case 2:  // nearly coplanar: the planes' sides are rounding
+            v = glm::vec3(unit(random), unit(random), 1e-7f * unit(random));
+            break;
+          case 3:  // huge: the products overflow
+            v = 1e19f * glm::vec3(unit(random), unit(random), unit(random));
+            break;
+          case 4:  // tiny: the products underflow
+            v = 1e-20f * glm::vec3(unit(random), unit(random), unit(random));
+            break;
+          case 5:  // on the lattice, with a non-finite coordinate
+            v = glm::vec3(float(small(random)), float(small(random)), float(small(random)));
+            break;
+          case 6:  // every coordinate at its own scale
+            v = glm::vec3(std::ldexp(unit(random), exponent(random)), std::ldexp(unit(random), exponent(random)),
+                          std::ldexp(unit(random), exponent(random)));
+            break;
+          default:  // a flat triangle and one lifted off its plane by 1/4 to 1/64 of their extent
+            v = k < 3 ? glm::vec3(unit(random), unit(random), 0.0f)
+                      : glm::vec3(unit(random), unit(random), std::ldexp(1.0f, -(i % 5) - 2));
+            break;
+        }
+      }
+      if (kind == 5) {
+        const int slot = pick(random);
+        c[size_t(slot / 3)][slot % 3] = slot % 2 ? inf : (slot % 3 ? -inf : nan);
+      }
+      const bool meet = skelform::geometry::triangles_intersect(glm::dvec3(c[0]), glm::dvec3(c[1]), glm::dvec3(c[2]),
+                                                                glm::dvec3(c[3]), glm::dvec3(c[4]), glm::dvec3(c[5]));
+      const bool fast = triangles_surely_apart(c[0], c[1], c[2], c[3], c[4], c[5]);
+      const bool portable = triangles_surely_apart_portable(c[0], c[1], c[2], c[3], c[4], c[5]);
+      if ((fast && meet) || (portable && meet)) {
+        FAIL_CHECK("kind " << kind << " case " << i << ": surely apart (" << fast << " / " << portable
+                           << ") where the exact test says they meet");
+        return;
+      }
+      exact_apart += meet ? 0 : 1;
+      sure += fast ? 1 : 0;
+      if (kind == 7) {
+        lifted += meet ? 0 : 1;
+        lifted_sure += fast ? 1 : 0;
+      }
+    }
+  // Lifted by far more than the margin (kSureMargin of the pair's extent cubed), it decides
+  // (not where a triangle is thin: its normal, and d with it, is then short).
+  CHECK(lifted_sure > lifted / 2);
+  CHECK(sure > exact_apart / 8);
+  MESSAGE("triangles_surely_apart: " << sure << " decided of " << exact_apart << " apart");
 }
