@@ -9,6 +9,7 @@
 
 #include "skelform/core/triangle_intersection.h"
 
+#include "triangles_meet.h"
 #include "vec3_sse.h"
 
 #include <glm/common.hpp>
@@ -122,13 +123,6 @@ constexpr float kSureScaleMin = 1e-30f;
 
 namespace detail {
 
-inline bool corners_beyond_plane_portable(const glm::vec3& p0, const glm::vec3& p1, const glm::vec3& p2,
-                                          const glm::vec3& q0, const glm::vec3& q1, const glm::vec3& q2, float margin) {
-  const glm::vec3 n = glm::cross(p1 - p0, p2 - p0);
-  const float d0 = glm::dot(n, q0 - p0), d1 = glm::dot(n, q1 - p0), d2 = glm::dot(n, q2 - p0);
-  return (d0 > margin && d1 > margin && d2 > margin) || (d0 < -margin && d1 < -margin && d2 < -margin);
-}
-
 inline bool triangles_surely_apart_portable(const glm::vec3& a0, const glm::vec3& a1, const glm::vec3& a2,
                                             const glm::vec3& b0, const glm::vec3& b1, const glm::vec3& b2) {
   const glm::vec3 lo = glm::min(glm::min(glm::min(a0, a1), glm::min(a2, b0)), glm::min(b1, b2));
@@ -138,26 +132,10 @@ inline bool triangles_surely_apart_portable(const glm::vec3& a0, const glm::vec3
   const float cube = r * r * r;
   if (!(cube >= kSureScaleMin && cube <= std::numeric_limits<float>::max())) return false;
   const float margin = kSureMargin * cube;
-  return corners_beyond_plane_portable(a0, a1, a2, b0, b1, b2, margin) ||
-         corners_beyond_plane_portable(b0, b1, b2, a0, a1, a2, margin);
+  return corners_beyond_plane(a0, a1, a2, b0, b1, b2, margin) || corners_beyond_plane(b0, b1, b2, a0, a1, a2, margin);
 }
 
 #if defined(__SSE2__)
-// The plane test with a vector per corner (x, y, z in the low lanes, 0 in the fourth).
-inline bool corners_beyond_plane_sse2(__m128 p0, __m128 p1, __m128 p2, __m128 q0, __m128 q1, __m128 q2, __m128 margin) {
-  const __m128 e1 = _mm_sub_ps(p1, p0), e2 = _mm_sub_ps(p2, p0);
-  // e1 × e2 = e1.yzx·e2.zxy − e1.zxy·e2.yzx.
-  const __m128 n = _mm_sub_ps(
-      _mm_mul_ps(_mm_shuffle_ps(e1, e1, _MM_SHUFFLE(3, 0, 2, 1)), _mm_shuffle_ps(e2, e2, _MM_SHUFFLE(3, 1, 0, 2))),
-      _mm_mul_ps(_mm_shuffle_ps(e1, e1, _MM_SHUFFLE(3, 1, 0, 2)), _mm_shuffle_ps(e2, e2, _MM_SHUFFLE(3, 0, 2, 1))));
-  __m128 m0 = _mm_mul_ps(n, _mm_sub_ps(q0, p0)), m1 = _mm_mul_ps(n, _mm_sub_ps(q1, p0)),
-         m2 = _mm_mul_ps(n, _mm_sub_ps(q2, p0)), m3 = _mm_setzero_ps();
-  _MM_TRANSPOSE4_PS(m0, m1, m2, m3);
-  const __m128 d = _mm_add_ps(_mm_add_ps(m0, m1), m2);  // d_k in lane k (lane 3: 0)
-  const __m128 minus = _mm_sub_ps(_mm_setzero_ps(), margin);
-  return (_mm_movemask_ps(_mm_cmpgt_ps(d, margin)) & 7) == 7 || (_mm_movemask_ps(_mm_cmplt_ps(d, minus)) & 7) == 7;
-}
-
 inline bool triangles_surely_apart_sse2(const glm::vec3& a0, const glm::vec3& a1, const glm::vec3& a2,
                                         const glm::vec3& b0, const glm::vec3& b1, const glm::vec3& b2) {
   const __m128 pa0 = sse::load3(a0), pa1 = sse::load3(a1), pa2 = sse::load3(a2);
@@ -171,8 +149,8 @@ inline bool triangles_surely_apart_sse2(const glm::vec3& a0, const glm::vec3& a1
   const float cube = _mm_cvtss_f32(_mm_mul_ps(_mm_mul_ps(r, r), r));
   if (!(cube >= kSureScaleMin && cube <= std::numeric_limits<float>::max())) return false;
   const __m128 margin = _mm_set1_ps(kSureMargin * cube);
-  return corners_beyond_plane_sse2(pa0, pa1, pa2, pb0, pb1, pb2, margin) ||
-         corners_beyond_plane_sse2(pb0, pb1, pb2, pa0, pa1, pa2, margin);
+  return sse::corners_beyond_plane(pa0, pa1, pa2, pb0, pb1, pb2, margin) ||
+         sse::corners_beyond_plane(pb0, pb1, pb2, pa0, pa1, pa2, margin);
 }
 #endif
 

@@ -13,21 +13,28 @@
 
 #if defined(__SSE2__) && defined(__FLT_EVAL_METHOD__) && __FLT_EVAL_METHOD__ == 0
 #  define SKELFORM_TRIANGLES_MEET_SSE2 1
+#  include "vec3_sse.h"
+
 #  include <emmintrin.h>
 #endif
 
 namespace skelform::runtime {
 namespace detail {
 
+// Are q0, q1, q2 all further than `margin` (≥ 0) on one side of the plane of p0, p1, p2: every
+// ((p1 − p0) × (p2 − p0)) · (q_k − p0) above margin, or every one below −margin? (The guard's
+// pre-test takes a margin, exact_triangles.h; sse::corners_beyond_plane is its four-lane form.)
+inline bool corners_beyond_plane(const glm::vec3& p0, const glm::vec3& p1, const glm::vec3& p2, const glm::vec3& q0,
+                                 const glm::vec3& q1, const glm::vec3& q2, float margin) {
+  const glm::vec3 n = glm::cross(p1 - p0, p2 - p0);
+  const float d0 = glm::dot(n, q0 - p0), d1 = glm::dot(n, q1 - p0), d2 = glm::dot(n, q2 - p0);
+  return (d0 > margin && d1 > margin && d2 > margin) || (d0 < -margin && d1 < -margin && d2 < -margin);
+}
+
 // Möller's early outs: all of one triangle's corners strictly on one side of the other's plane.
 inline bool planes_separate(const glm::vec3& p0, const glm::vec3& p1, const glm::vec3& p2, const glm::vec3& q0,
                             const glm::vec3& q1, const glm::vec3& q2) {
-  const glm::vec3 np = glm::cross(p1 - p0, p2 - p0);
-  const float d0 = glm::dot(np, q0 - p0), d1 = glm::dot(np, q1 - p0), d2 = glm::dot(np, q2 - p0);
-  if ((d0 > 0.0f && d1 > 0.0f && d2 > 0.0f) || (d0 < 0.0f && d1 < 0.0f && d2 < 0.0f)) return true;
-  const glm::vec3 nq = glm::cross(q1 - q0, q2 - q0);
-  const float e0 = glm::dot(nq, p0 - q0), e1 = glm::dot(nq, p1 - q0), e2 = glm::dot(nq, p2 - q0);
-  return (e0 > 0.0f && e1 > 0.0f && e2 > 0.0f) || (e0 < 0.0f && e1 < 0.0f && e2 < 0.0f);
+  return corners_beyond_plane(p0, p1, p2, q0, q1, q2, 0.0f) || corners_beyond_plane(q0, q1, q2, p0, p1, p2, 0.0f);
 }
 
 // Do the projections of the triangles on `axis` miss each other?
@@ -110,12 +117,20 @@ inline int splitting_lanes(const Vec3x4& axis, const SeparatingFrame& f) {
   return _mm_movemask_ps(_mm_and_ps(_mm_cmpgt_ps(length, _mm_setzero_ps()), apart));
 }
 
-// triangles_meet_portable with its 17 axes in five groups of four (the last lanes of two groups
-// are zero axes, which split nothing). The verdict is the same: the triangles meet when no axis
-// splits them, whatever the order the axes are tried in.
+// triangles_meet_portable: its early outs as planes_separate takes them, then its 17 axes in
+// five groups of four (the last lanes of two groups are zero axes, which split nothing). The
+// verdict is the same: the triangles meet when no axis splits them, whatever the order the
+// axes are tried in.
 inline bool triangles_meet_sse2(const glm::vec3& p0, const glm::vec3& p1, const glm::vec3& p2, const glm::vec3& q0,
                                 const glm::vec3& q1, const glm::vec3& q2) {
-  if (planes_separate(p0, p1, p2, q0, q1, q2)) return false;
+  {
+    const __m128 a0 = sse::load3(p0), a1 = sse::load3(p1), a2 = sse::load3(p2);
+    const __m128 b0 = sse::load3(q0), b1 = sse::load3(q1), b2 = sse::load3(q2);
+    const __m128 zero = _mm_setzero_ps();  // (−0 is 0: d < −0 is d < 0)
+    if (sse::corners_beyond_plane(a0, a1, a2, b0, b1, b2, zero) ||
+        sse::corners_beyond_plane(b0, b1, b2, a0, a1, a2, zero))
+      return false;
+  }
   const SeparatingFrame f(p0, p1, p2, q0, q1, q2);
   const glm::vec3* ea = f.ea;
   const glm::vec3* eb = f.eb;

@@ -60,6 +60,26 @@ inline void store3(glm::vec3& v, __m128 a) {
   _mm_store_ss(&v.z, _mm_movehl_ps(a, a));
 }
 
+// Are q0, q1, q2 (x, y, z in the low lanes) all further than `margin` (≥ 0, in every lane) on
+// one side of the plane of p0, p1, p2: every d_k = ((p1 − p0) × (p2 − p0)) · (q_k − p0) above
+// margin, or every one below −margin? glm::cross's products and differences, and each glm::dot
+// as (x + y) + z across the transposed products: with margin 0, the scalar test's bits and
+// verdict (the contact pass's and the guard's triangle tests, triangles_meet.h and
+// exact_triangles.h).
+inline bool corners_beyond_plane(__m128 p0, __m128 p1, __m128 p2, __m128 q0, __m128 q1, __m128 q2, __m128 margin) {
+  const __m128 e1 = _mm_sub_ps(p1, p0), e2 = _mm_sub_ps(p2, p0);
+  // (e1.y e2.z − e2.y e1.z, e1.z e2.x − e2.z e1.x, e1.x e2.y − e2.x e1.y)
+  const __m128 n = _mm_sub_ps(
+      _mm_mul_ps(_mm_shuffle_ps(e1, e1, _MM_SHUFFLE(3, 0, 2, 1)), _mm_shuffle_ps(e2, e2, _MM_SHUFFLE(3, 1, 0, 2))),
+      _mm_mul_ps(_mm_shuffle_ps(e2, e2, _MM_SHUFFLE(3, 0, 2, 1)), _mm_shuffle_ps(e1, e1, _MM_SHUFFLE(3, 1, 0, 2))));
+  __m128 m0 = _mm_mul_ps(n, _mm_sub_ps(q0, p0)), m1 = _mm_mul_ps(n, _mm_sub_ps(q1, p0)),
+         m2 = _mm_mul_ps(n, _mm_sub_ps(q2, p0)), m3 = _mm_setzero_ps();
+  _MM_TRANSPOSE4_PS(m0, m1, m2, m3);
+  const __m128 d = _mm_add_ps(_mm_add_ps(m0, m1), m2);  // d_k in lane k
+  const __m128 minus = _mm_sub_ps(_mm_setzero_ps(), margin);
+  return (_mm_movemask_ps(_mm_cmpgt_ps(d, margin)) & 7) == 7 || (_mm_movemask_ps(_mm_cmplt_ps(d, minus)) & 7) == 7;
+}
+
 }  // namespace skelform::runtime::sse
 
 namespace skelform::runtime {
