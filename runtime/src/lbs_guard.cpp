@@ -98,6 +98,7 @@ class GuardPass {
         float box[6];
         triangle_box(ws_.positions[c[0]], ws_.positions[c[1]], ws_.positions[c[2]], box);
         ws_.boxes.set(h_.slot[t], box);
+        grow_triangle_hierarchy(h_, h_.slot[t], box, ws_.node_boxes.data());
         if (ws_.moved[c[0]] || ws_.moved[c[1]] || ws_.moved[c[2]]) {
           ws_.tested[t] = 1;
           ws_.wanted[h_.slot[t]] = 1;
@@ -318,7 +319,8 @@ void fall_back_to_lbs(GuardWorkspace& ws) {
 //
 // `only` (welded vertices, or null): the positions and boxes of the previous call are known
 // to add no pair, and only the vertices listed have moved since (towards L), so the first
-// round recomputes and tests only the triangles around those.
+// round recomputes and tests only the triangles around those, and grows the previous call's
+// node boxes around them instead of refitting the hierarchy.
 //
 // `hook` (or null; only without `only`) runs after the first search (FirstRoundHook).
 void guard_intersections(const Deformable& d, const ContactMesh& mesh, const DenseOutput& skelform,
@@ -334,7 +336,11 @@ void guard_intersections(const Deformable& d, const ContactMesh& mesh, const Den
     return;
   }
   if (ws.test_list.empty()) return;
-  refit_triangle_hierarchy(mesh.hierarchy, ws.boxes, ws.node_boxes.data());
+  // Node boxes that hold every triangle's box: refitted to the new pose, or, after `only`,
+  // those of the previous call (which its rounds grew) grown around the triangles re-boxed
+  // (seed_incremental). Looser boxes than a refit's visit more node pairs, but the leaf pairs
+  // test the triangles' own boxes: the same pairs, and the same verdicts.
+  if (!only) refit_triangle_hierarchy(mesh.hierarchy, ws.boxes, ws.node_boxes.data());
   for (uint32_t round = 0; !ws.test_list.empty(); ++round) {
     ws.flagged_list.clear();
     bool added = false;
