@@ -10,6 +10,7 @@
 #include "contact.h"
 #include "instance.h"
 #include "lbs_guard.h"
+#include "runtime/one_primitive.h"
 #include "skelform/core/triangle_intersection.h"
 
 #include <doctest/doctest.h>
@@ -42,14 +43,7 @@ struct Tangle {
     }
     const uint32_t vertices = 3 * count;
     normals.assign(vertices, glm::vec3(0, 0, 1));
-    d.vertex_count = vertices;
-    d.skelform_weight.assign(vertices, 1.0f);
-    PrimitiveRecord primitive;
-    primitive.primitive = 0;
-    primitive.vertex_count = vertices;
-    primitive.triangle_count = count;
-    primitive.has_normals = true;
-    d.primitives.push_back(primitive);
+    skelform::test::make_one_primitive(d, vertices, count);
     mesh = build_contact_mesh(rest.data(), vertices, triangles.data(), count, AllocatorRef{});
   }
 

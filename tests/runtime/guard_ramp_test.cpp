@@ -6,6 +6,7 @@
 #include "contact.h"
 #include "instance.h"
 #include "lbs_guard.h"
+#include "runtime/one_primitive.h"
 
 #include <doctest/doctest.h>
 #include <glm/vec3.hpp>
@@ -37,8 +38,8 @@ struct RampScene {
       }
     v = 4 * n + 4;
     u = 6 * n + 4;
-    k[v].z = 1.0f;      // the poke through B
-    l[u].z = -8.0f;     // where the ramp moves u towards
+    k[v].z = 1.0f;         // the poke through B
+    l[u].z = -8.0f;        // where the ramp moves u towards
     const float s = 0.8f;  // B: wider than the poke's cross-section at its height
     const uint32_t b0 = add(glm::vec3(4 - s, 4 - s, 0.5f)), b1 = add(glm::vec3(4 + s, 4 - s, 0.5f)),
                    b2 = add(glm::vec3(4 + s, 4 + s, 0.5f)), b3 = add(glm::vec3(4 - s, 4 + s, 0.5f));
@@ -59,14 +60,7 @@ struct RampScene {
       }
     const uint32_t vertices = uint32_t(k.size());
     normals.assign(vertices, glm::vec3(0, 0, 1));
-    d.vertex_count = vertices;
-    d.skelform_weight.assign(vertices, 1.0f);
-    PrimitiveRecord primitive;
-    primitive.primitive = 0;
-    primitive.vertex_count = vertices;
-    primitive.triangle_count = uint32_t(triangles.size() / 3);
-    primitive.has_normals = true;
-    d.primitives.push_back(primitive);
+    skelform::test::make_one_primitive(d, vertices, uint32_t(triangles.size() / 3));
     // The rest pose is LBS's here.
     mesh = build_contact_mesh(l.data(), vertices, triangles.data(), triangles.size() / 3, AllocatorRef{});
   }
@@ -97,7 +91,7 @@ TEST_CASE("guard: a triangle the ramp carries out of its leaf box is checked whe
   RampScene scene;
   REQUIRE(scene.mesh.vertex_count == scene.k.size());  // nothing welded
   REQUIRE(scene.pairs(scene.l).empty());               // LBS, and rest, have no pair
-  REQUIRE(!scene.pairs(scene.k).empty());               // K pokes through B
+  REQUIRE(!scene.pairs(scene.k).empty());              // K pokes through B
   GuardWorkspace ws = make_guard_workspace(scene.mesh, AllocatorRef{});
   std::vector<glm::vec3> k = scene.k, l = scene.l, kn = scene.normals, ln = scene.normals;
   std::vector<glm::vec3> out(k.size()), on(k.size());
