@@ -113,13 +113,16 @@ __attribute__((target("avx"))) inline bool triangles_intersect_avx(const glm::dv
 // 8.1·2^-24·(3R)³ < 1.4e-5·R³ of its exact value, and the exact test's projections on its face
 // normal ((a1 − a0) × (a2 − a1): the same normal exactly) within about 10·2^-53·(3R)³ of theirs,
 // 0 for the plane's own corners. So every d_k beyond kSureMargin·R³ on one side means that the
-// face normal separates the triangles in the exact test too: it says they do not meet. R³ must
-// lie in [kSureScaleMin, FLT_MAX], where no product underflows into the subnormals nor
-// overflows; outside it, and where a coordinate is NaN, this says nothing (false). False says
+// face normal separates the triangles in the exact test too: it says they do not meet (the
+// margin is about seven times the float bound). R³ must lie in [kSureScaleMin, kSureScaleMax]:
+// each |n_i| ≤ 2R², so every partial sum of a d_k is within 6R³ and stays finite below
+// FLT_MAX / 8, and above 1e-30 the products' underflow (at most 2^-149 each) is far below the
+// margin. Outside it, and where a coordinate is NaN, this says nothing (false). False says
 // nothing either: the exact test decides. On the guard's broad-phase pairs, neighbours on one
 // surface, about four in five are decided here, without the 17 axes in double.
 constexpr float kSureMargin = 1e-4f;
 constexpr float kSureScaleMin = 1e-30f;
+constexpr float kSureScaleMax = std::numeric_limits<float>::max() / 8.0f;
 
 namespace detail {
 
@@ -130,7 +133,7 @@ inline bool triangles_surely_apart_portable(const glm::vec3& a0, const glm::vec3
   const glm::vec3 extent = hi - lo;
   const float r = std::max(extent.x, std::max(extent.y, extent.z));
   const float cube = r * r * r;
-  if (!(cube >= kSureScaleMin && cube <= std::numeric_limits<float>::max())) return false;
+  if (!(cube >= kSureScaleMin && cube <= kSureScaleMax)) return false;
   const float margin = kSureMargin * cube;
   return corners_beyond_plane(a0, a1, a2, b0, b1, b2, margin) || corners_beyond_plane(b0, b1, b2, a0, a1, a2, margin);
 }
@@ -147,7 +150,7 @@ inline bool triangles_surely_apart_sse2(const glm::vec3& a0, const glm::vec3& a1
   const __m128 r = _mm_max_ps(extent, _mm_max_ps(_mm_shuffle_ps(extent, extent, _MM_SHUFFLE(3, 0, 2, 1)),
                                                  _mm_shuffle_ps(extent, extent, _MM_SHUFFLE(3, 1, 0, 2))));
   const float cube = _mm_cvtss_f32(_mm_mul_ps(_mm_mul_ps(r, r), r));
-  if (!(cube >= kSureScaleMin && cube <= std::numeric_limits<float>::max())) return false;
+  if (!(cube >= kSureScaleMin && cube <= kSureScaleMax)) return false;
   const __m128 margin = _mm_set1_ps(kSureMargin * cube);
   return sse::corners_beyond_plane(pa0, pa1, pa2, pb0, pb1, pb2, margin) ||
          sse::corners_beyond_plane(pb0, pb1, pb2, pa0, pa1, pa2, margin);

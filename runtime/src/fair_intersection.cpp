@@ -64,9 +64,10 @@ Grid build_grid(const FairingTopology& topo, const glm::vec3* skeletal, const fl
   grid.ring[0] = grid.ring[1] = grid.ring[2] = ring;
 
   // Counting sort, stable (each cell lists its vertices in ascending order: determinism of ties
-  // in the minimum below), in one pass over the cells: counts at c + 2, their running sum puts
-  // the start of cell c at c + 1, and placing the vertices moves each to the start of c + 1.
-  // The grid has several cells per vertex, so the passes over the cells are most of the work.
+  // in the minimum below), with no pass over the cells after the placement: counts at c + 2,
+  // their running sum puts the start of cell c at c + 1, and placing the vertices moves each to
+  // the start of c + 1. The grid has several cells per vertex, so the passes over the cells (the
+  // fill and the running sum) are much of the work.
   const size_t cell_count = size_t(size) * size * size;
   uint32_t* offsets = ws.cell_offsets.data();
   std::fill(offsets, offsets + cell_count + 2, 0u);

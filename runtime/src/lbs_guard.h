@@ -24,9 +24,11 @@
 // AVX, exact_triangles.h's form of it, which gives the same verdict), after a float test of the
 // face planes that answers only where that verdict is surely "apart" (triangles_surely_apart);
 // the broad phase is the welded mesh's triangle hierarchy (triangle_bvh.h): the first round
-// meets it with itself, refitted to the boxes at x, and passes over the leaf pairs a bound from
-// the rest pose shows apart (rest_clearance.h, with the caller's joints); later rounds query it
-// with the triangles whose corners moved, its node boxes grown around their new boxes.
+// meets it with itself, refitted to the boxes at x (in the re-check after the ramp, the node
+// boxes of the search before, grown around the triangles it re-boxes), and passes over the leaf
+// pairs a bound from the rest pose shows apart (rest_clearance.h, with the caller's joints);
+// later rounds query it with the triangles whose corners moved, its node boxes grown around
+// their new boxes.
 // The guard's work per evaluation is bounded (pair_visit_budget, triangle_bvh.h: candidate
 // pairs its searches visit, linear in the welded triangles): a pose that would need more, a
 // surface tangled over itself as only degenerate or corrupt data gives (the corpus's worst

@@ -99,7 +99,7 @@ TEST_CASE("triangles_surely_apart: only where geometry::triangles_intersect says
   std::uniform_int_distribution<int> pick(0, 17), exponent(-70, 70);
   const float inf = std::numeric_limits<float>::infinity(), nan = std::numeric_limits<float>::quiet_NaN();
   uint32_t sure = 0, exact_apart = 0, lifted_sure = 0, lifted = 0;
-  for (int kind = 0; kind < 8; ++kind)
+  for (int kind = 0; kind < 11; ++kind)
     for (int i = 0; i < 40000; ++i) {
       std::array<glm::vec3, 6> c;
       for (size_t k = 0; k < 6; ++k) {
@@ -127,9 +127,19 @@ TEST_CASE("triangles_surely_apart: only where geometry::triangles_intersect says
             v = glm::vec3(std::ldexp(unit(random), exponent(random)), std::ldexp(unit(random), exponent(random)),
                           std::ldexp(unit(random), exponent(random)));
             break;
-          default:  // a flat triangle and one lifted off its plane by 1/4 to 1/64 of their extent
+          case 7:  // a flat triangle and one lifted off its plane by 1/4 to 1/64 of their extent
             v = k < 3 ? glm::vec3(unit(random), unit(random), 0.0f)
                       : glm::vec3(unit(random), unit(random), std::ldexp(1.0f, -(i % 5) - 2));
+            break;
+          case 8:  // large, R³ from FLT_MAX / 64 to past FLT_MAX: the pre-test's upper bound
+            v = std::ldexp(1.0f, 40 + i % 4) * glm::vec3(unit(random), unit(random), unit(random));
+            break;
+          case 9:  // small, R³ about 1e-30 to 1e-24: its lower bound
+            v = 1e-9f * std::ldexp(1.0f, -(i % 4)) * glm::vec3(unit(random), unit(random), unit(random));
+            break;
+          default:  // nearly coplanar at the margin: lifted by 1e-4 of the extent cubed, ± 20 %
+            v = k < 3 ? glm::vec3(unit(random), unit(random), 0.0f)
+                      : glm::vec3(unit(random), unit(random), 8e-4f * (1.0f + 0.2f * unit(random)));
             break;
         }
       }
@@ -153,6 +163,20 @@ TEST_CASE("triangles_surely_apart: only where geometry::triangles_intersect says
         lifted_sure += fast ? 1 : 0;
       }
     }
+  // Its range: a triangle over another, half their size above it, is decided at every scale
+  // where R³ lies within [kSureScaleMin, kSureScaleMax] (where no sum overflows and no product's
+  // underflow matters), and left to the exact test beyond (R³ near FLT_MAX: a sum could round
+  // to infinity whatever its sign).
+  for (const float size : {1e-11f, 1e-9f, 1.0f, 1e12f, 6e12f}) {
+    const glm::vec3 p0(0.0f), p1(size, 0.0f, 0.0f), p2(0.0f, size, 0.0f);
+    const glm::vec3 lift(0.0f, 0.0f, 0.5f * size);
+    const float cube = size * size * size;  // R³: the pair's largest extent is `size`
+    const bool in_range = cube >= skelform::runtime::kSureScaleMin && cube <= skelform::runtime::kSureScaleMax;
+    INFO("size " << size);
+    CHECK(in_range == (size >= 1e-9f && size <= 1e12f));
+    CHECK(triangles_surely_apart(p0, p1, p2, p0 + lift, p1 + lift, p2 + lift) == in_range);
+    CHECK(triangles_surely_apart_portable(p0, p1, p2, p0 + lift, p1 + lift, p2 + lift) == in_range);
+  }
   // Lifted by far more than the margin (kSureMargin of the pair's extent cubed), it decides
   // (not where a triangle is thin: its normal, and d with it, is then short).
   CHECK(lifted_sure > lifted / 2);
