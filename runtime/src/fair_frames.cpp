@@ -311,7 +311,8 @@ FairingRest make_fairing_rest(const FairingTopology& topology, const glm::vec3* 
   rest.gap.assign(n, 0.0f);
   rest.positions.assign(positions, positions + n);
   rest.skeletal.assign(skeletal, skeletal + n);
-  const int size = static_cast<int>(grid_size == 0 ? kDefaultGridSize : std::min(grid_size, ws.grid_size));
+  // (The default too is cut to the workspace's grid: a smaller one has fewer cells.)
+  const int size = static_cast<int>(std::min(grid_size == 0 ? kDefaultGridSize : grid_size, ws.grid_size));
   rest_gaps(topology, skeletal, radius, positions, size, ws, rest.gap.data());
   return rest;
 }

@@ -593,6 +593,21 @@ TEST_CASE("fair: capsule bent 40 deg: the reconstruction folds on the inner side
   CHECK(std::fabs(faired.volume_change) < std::fabs(lbs.volume_change));
 }
 
+TEST_CASE("fair: the rest targets keep to a workspace grid smaller than the default") {
+  // make_fairing_rest's grid is at most the workspace's, the default (0) included: an 8³
+  // workspace gives the gaps of an explicit 8, where the default 20 would bucket past its cells.
+  const BentCapsule scene;
+  std::vector<glm::vec3> rest;
+  for (const Vec3& p : scene.rest.positions) rest.push_back(glm::vec3(p));
+  Fairing fairing(scene.rest, 8);
+  const FairingRest by_default = make_fairing_rest(fairing.topology, scene.skeletal_rest.data(), scene.radius.data(),
+                                                   rest.data(), 0, fairing.workspace, {});
+  const FairingRest explicit_8 = make_fairing_rest(fairing.topology, scene.skeletal_rest.data(), scene.radius.data(),
+                                                   rest.data(), 8, fairing.workspace, {});
+  REQUIRE(by_default.gap.size() == rest.size());
+  CHECK(by_default.gap == explicit_8.gap);
+}
+
 TEST_CASE("fair: the rest pose is nearly a fixed point - runs are deterministic / finite and scale-invariant") {
   const BentCapsule scene;
   std::vector<glm::vec3> rest;
