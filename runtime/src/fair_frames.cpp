@@ -2,6 +2,8 @@
 // Relative to rest, the flows compare the surface's umbrellas with the rest ones turned by a
 // frame per vertex that follows the pose (normal along M − S, tangent fitted to the rest
 // one-ring), so an undeformed character is a fixed point of flows (4) and (5).
+#include "avx2_lanes.h"
+#include "cpu.h"
 #include "fair_internal.h"
 #include "vec3_sse.h"
 
@@ -239,13 +241,15 @@ void store_lanes(const FrameLanes& f, const RingSums& r, const LaneRings& rings,
 // one-ring is done adds +0, which leaves its sums as they are: they start at +0 and can never
 // become −0), the rest fit's turn. A lane whose normal or first edge takes a fallback
 // (medial radius 0 or not finite, first edge parallel to the normal, no neighbours) is
-// recomputed by vertex_frame. Returns the number of vertices done (a multiple of four).
+// recomputed by vertex_frame. Returns the vertex it stopped at (first plus a multiple of four).
+// Starts at vertex `first`.
 uint32_t lane_frames(const FairingTopology& topology, const glm::vec3* skeletal, const glm::vec3* positions,
-                     glm::mat3* frames, const FairingRest& rest, glm::vec3* umbrellas, float* mean_edges) {
+                     glm::mat3* frames, const FairingRest& rest, glm::vec3* umbrellas, float* mean_edges,
+                     uint32_t first) {
   const uint32_t vertex_count = topology.vertex_count;
   const sse::Vec3Reader read(positions, vertex_count);
   const uint32_t* neighbours = topology.neighbours.data();
-  uint32_t v = 0;
+  uint32_t v = first;
   for (; v + 4 <= vertex_count; v += 4) {
     const LaneRings rings = lane_rings(topology.neighbour_offsets.data(), v);
     FrameLanes f = lane_basis(read, skeletal, neighbours, v, rings);
@@ -262,18 +266,241 @@ uint32_t lane_frames(const FairingTopology& topology, const glm::vec3* skeletal,
 }
 #endif
 
+#if defined(SKELFORM_HAS_AVX2_KERNELS)
+// lane_frames eight vertices at a time (AVX2 alone: no fused multiply-add, so every lane keeps
+// vertex_frame's operations and bits). The same steps as the four lanes above, with gathers in
+// place of the transposed loads: a lane whose one-ring is done reads its own vertex and a rest
+// edge of 0, and adds +0.
+namespace avx8 {
+
+struct Rings {
+  __m256i begin, degree, self;  // self: v + lane
+  uint32_t most;
+};
+struct Frames {
+  __m256 px, py, pz, nx, ny, nz, tx, ty, tz, bx, by, bz, main;
+};
+struct Sums {
+  __m256 sum_x, sum_y, sum_z, edge_sum, dot_sum, cross_sum;
+};
+
+__attribute__((target("avx2"))) inline __m256 add(__m256 a, __m256 b) { return _mm256_add_ps(a, b); }
+__attribute__((target("avx2"))) inline __m256 sub(__m256 a, __m256 b) { return _mm256_sub_ps(a, b); }
+__attribute__((target("avx2"))) inline __m256 mul(__m256 a, __m256 b) { return _mm256_mul_ps(a, b); }
+// glm::dot's order: (x0 x1 + y0 y1) + z0 z1.
+__attribute__((target("avx2"))) inline __m256 dot(__m256 x0, __m256 y0, __m256 z0, __m256 x1, __m256 y1, __m256 z1) {
+  return add(add(mul(x0, x1), mul(y0, y1)), mul(z0, z1));
+}
+__attribute__((target("avx2"))) inline __m256 select(__m256 mask, __m256 a, __m256 b) {
+  return _mm256_or_ps(_mm256_and_ps(mask, a), _mm256_andnot_ps(mask, b));
+}
+// The vec3s p[index] as three lanes of x, y and z.
+__attribute__((target("avx2"))) inline void gather3(const glm::vec3* p, __m256i index, __m256& x, __m256& y,
+                                                    __m256& z) {
+  const __m256i index3 = _mm256_add_epi32(_mm256_add_epi32(index, index), index);
+  x = avx2::gather_axis(p, 0, index3), y = avx2::gather_axis(p, 1, index3), z = avx2::gather_axis(p, 2, index3);
+}
+// neighbours[k] where `live`, else `self`.
+__attribute__((target("avx2"))) inline __m256i neighbour(const uint32_t* neighbours, __m256i k, __m256i live,
+                                                         __m256i self) {
+  return _mm256_mask_i32gather_epi32(self, reinterpret_cast<const int*>(neighbours), k, live, 4);
+}
+
+__attribute__((target("avx2"))) Rings rings(const uint32_t* offsets, uint32_t v) {
+  Rings r;
+  r.begin = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(offsets + v));
+  r.degree = _mm256_sub_epi32(_mm256_loadu_si256(reinterpret_cast<const __m256i*>(offsets + v + 1)), r.begin);
+  r.self = _mm256_add_epi32(_mm256_set1_epi32(static_cast<int>(v)), _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7));
+  __m256i most = _mm256_max_epu32(r.degree, _mm256_permute2x128_si256(r.degree, r.degree, 1));
+  most = _mm256_max_epu32(most, _mm256_shuffle_epi32(most, _MM_SHUFFLE(1, 0, 3, 2)));
+  most = _mm256_max_epu32(most, _mm256_shuffle_epi32(most, _MM_SHUFFLE(2, 3, 0, 1)));
+  r.most = static_cast<uint32_t>(_mm256_cvtsi256_si32(most));
+  return r;
+}
+
+// lane_basis's normal, tangent, bitangent and main-branch lanes.
+__attribute__((target("avx2"))) Frames basis(const glm::vec3* positions, const glm::vec3* skeletal,
+                                             const uint32_t* neighbours, const Rings& r) {
+  const __m256 zero = _mm256_setzero_ps(), one = _mm256_set1_ps(1.0f), largest = _mm256_set1_ps(FLT_MAX);
+  Frames f;
+  gather3(positions, r.self, f.px, f.py, f.pz);
+  __m256 sx, sy, sz;
+  gather3(skeletal, r.self, sx, sy, sz);
+  __m256 nx = sub(f.px, sx), ny = sub(f.py, sy), nz = sub(f.pz, sz);
+  const __m256 n_length = _mm256_sqrt_ps(dot(nx, ny, nz, nx, ny, nz));
+  const __m256i has_ring = _mm256_cmpgt_epi32(r.degree, _mm256_setzero_si256());
+  __m256 main = _mm256_and_ps(_mm256_cmp_ps(n_length, zero, _CMP_GT_OQ), _mm256_cmp_ps(n_length, largest, _CMP_LE_OQ));
+  main = _mm256_and_ps(main, _mm256_castsi256_ps(has_ring));
+  const __m256 n_inverse = _mm256_div_ps(one, n_length);
+  nx = mul(nx, n_inverse), ny = mul(ny, n_inverse), nz = mul(nz, n_inverse);
+  __m256 qx, qy, qz;
+  gather3(positions, neighbour(neighbours, r.begin, has_ring, r.self), qx, qy, qz);
+  const __m256 ex = sub(qx, f.px), ey = sub(qy, f.py), ez = sub(qz, f.pz);
+  const __m256 e_dot_n = dot(ex, ey, ez, nx, ny, nz);
+  __m256 tx = sub(ex, mul(e_dot_n, nx)), ty = sub(ey, mul(e_dot_n, ny)), tz = sub(ez, mul(e_dot_n, nz));
+  const __m256 t2 = dot(tx, ty, tz, tx, ty, tz);
+  const __m256 not_parallel = _mm256_cmp_ps(t2, mul(_mm256_set1_ps(1e-12f), dot(ex, ey, ez, ex, ey, ez)), _CMP_GT_OQ);
+  main = _mm256_and_ps(main, _mm256_and_ps(not_parallel, _mm256_cmp_ps(t2, largest, _CMP_LE_OQ)));
+  const __m256 t_inverse = _mm256_div_ps(one, _mm256_sqrt_ps(t2));
+  tx = mul(tx, t_inverse), ty = mul(ty, t_inverse), tz = mul(tz, t_inverse);
+  f.nx = nx, f.ny = ny, f.nz = nz, f.tx = tx, f.ty = ty, f.tz = tz;
+  f.bx = sub(mul(ny, tz), mul(ty, nz)), f.by = sub(mul(nz, tx), mul(tz, nx)), f.bz = sub(mul(nx, ty), mul(tx, ny));
+  f.main = main;
+  return f;
+}
+
+// ring_sums: edge j of every lane at step j.
+__attribute__((target("avx2"))) Sums ring_sums(const glm::vec3* positions, const uint32_t* neighbours,
+                                               const glm::vec2* then_2d, const Rings& r, const Frames& f) {
+  const __m256 zero = _mm256_setzero_ps();
+  Sums s{zero, zero, zero, zero, zero, zero};
+  const float* then = &then_2d[0].x;
+  for (uint32_t j = 0; j < r.most; ++j) {
+    const __m256i live_i = _mm256_cmpgt_epi32(r.degree, _mm256_set1_epi32(static_cast<int>(j)));
+    const __m256 live = _mm256_castsi256_ps(live_i);
+    const __m256i k = _mm256_add_epi32(r.begin, _mm256_set1_epi32(static_cast<int>(j)));
+    __m256 qx, qy, qz;
+    gather3(positions, neighbour(neighbours, k, live_i, r.self), qx, qy, qz);
+    const __m256i k2 = _mm256_add_epi32(k, k);
+    const __m256 then_x = _mm256_mask_i32gather_ps(zero, then, k2, live, 4);
+    const __m256 then_y = _mm256_mask_i32gather_ps(zero, then + 1, k2, live, 4);
+    const __m256 dx = sub(qx, f.px), dy = sub(qy, f.py), dz = sub(qz, f.pz);
+    const __m256 now_x = dot(dx, dy, dz, f.tx, f.ty, f.tz), now_y = dot(dx, dy, dz, f.bx, f.by, f.bz);
+    s.sum_x = add(s.sum_x, _mm256_and_ps(live, qx));
+    s.sum_y = add(s.sum_y, _mm256_and_ps(live, qy));
+    s.sum_z = add(s.sum_z, _mm256_and_ps(live, qz));
+    s.edge_sum = add(s.edge_sum, _mm256_and_ps(live, _mm256_sqrt_ps(dot(dx, dy, dz, dx, dy, dz))));
+    s.dot_sum = add(s.dot_sum, _mm256_and_ps(live, add(mul(then_x, now_x), mul(then_y, now_y))));
+    s.cross_sum = add(s.cross_sum, _mm256_and_ps(live, sub(mul(then_x, now_y), mul(then_y, now_x))));
+  }
+  return s;
+}
+
+// turn_lanes.
+__attribute__((target("avx2"))) void turn(const Sums& s, Frames& f) {
+  const __m256 zero = _mm256_setzero_ps(), one = _mm256_set1_ps(1.0f), largest = _mm256_set1_ps(FLT_MAX);
+  const __m256 fit = _mm256_sqrt_ps(add(mul(s.dot_sum, s.dot_sum), mul(s.cross_sum, s.cross_sum)));
+  const __m256 turned = _mm256_and_ps(_mm256_cmp_ps(fit, zero, _CMP_GT_OQ), _mm256_cmp_ps(fit, largest, _CMP_LE_OQ));
+  const __m256 fit_inverse = _mm256_div_ps(one, fit);
+  const __m256 c = mul(s.dot_sum, fit_inverse), sn = mul(s.cross_sum, fit_inverse);
+  const __m256 minus_s = _mm256_xor_ps(sn, _mm256_set1_ps(-0.0f));
+  const __m256 turned_x = add(mul(c, f.tx), mul(sn, f.bx)), turned_y = add(mul(c, f.ty), mul(sn, f.by)),
+               turned_z = add(mul(c, f.tz), mul(sn, f.bz));
+  f.bx = select(turned, add(mul(minus_s, f.tx), mul(c, f.bx)), f.bx);
+  f.by = select(turned, add(mul(minus_s, f.ty), mul(c, f.by)), f.by);
+  f.bz = select(turned, add(mul(minus_s, f.tz), mul(c, f.bz)), f.bz);
+  f.tx = select(turned, turned_x, f.tx), f.ty = select(turned, turned_y, f.ty), f.tz = select(turned, turned_z, f.tz);
+}
+
+// store_lanes: each frame's first eight floats (t, b, n.x, n.y) by an 8×8 transpose, then n.z,
+// the umbrellas and the mean edges.
+__attribute__((target("avx2"))) void store(const Frames& f, const Sums& s, const Rings& r, uint32_t v,
+                                           glm::mat3* frames, glm::vec3* umbrellas, float* mean_edges) {
+  const __m256 count = _mm256_cvtepi32_ps(r.degree);
+  const __m256 u[3] = {sub(_mm256_div_ps(s.sum_x, count), f.px), sub(_mm256_div_ps(s.sum_y, count), f.py),
+                       sub(_mm256_div_ps(s.sum_z, count), f.pz)};
+  _mm256_storeu_ps(mean_edges + v, _mm256_div_ps(s.edge_sum, count));
+  const __m256 a0 = _mm256_unpacklo_ps(f.tx, f.ty), a1 = _mm256_unpackhi_ps(f.tx, f.ty);
+  const __m256 a2 = _mm256_unpacklo_ps(f.tz, f.bx), a3 = _mm256_unpackhi_ps(f.tz, f.bx);
+  const __m256 a4 = _mm256_unpacklo_ps(f.by, f.bz), a5 = _mm256_unpackhi_ps(f.by, f.bz);
+  const __m256 a6 = _mm256_unpacklo_ps(f.nx, f.ny), a7 = _mm256_unpackhi_ps(f.nx, f.ny);
+  const __m256 b0 = _mm256_shuffle_ps(a0, a2, _MM_SHUFFLE(1, 0, 1, 0)),
+               b1 = _mm256_shuffle_ps(a0, a2, _MM_SHUFFLE(3, 2, 3, 2));
+  const __m256 b2 = _mm256_shuffle_ps(a1, a3, _MM_SHUFFLE(1, 0, 1, 0)),
+               b3 = _mm256_shuffle_ps(a1, a3, _MM_SHUFFLE(3, 2, 3, 2));
+  const __m256 b4 = _mm256_shuffle_ps(a4, a6, _MM_SHUFFLE(1, 0, 1, 0)),
+               b5 = _mm256_shuffle_ps(a4, a6, _MM_SHUFFLE(3, 2, 3, 2));
+  const __m256 b6 = _mm256_shuffle_ps(a5, a7, _MM_SHUFFLE(1, 0, 1, 0)),
+               b7 = _mm256_shuffle_ps(a5, a7, _MM_SHUFFLE(3, 2, 3, 2));
+  // Row i: vertex i's eight floats (b_k holds lanes k' and k' + 4 in its halves).
+  const __m256 row[8] = {_mm256_permute2f128_ps(b0, b4, 0x20), _mm256_permute2f128_ps(b1, b5, 0x20),
+                         _mm256_permute2f128_ps(b2, b6, 0x20), _mm256_permute2f128_ps(b3, b7, 0x20),
+                         _mm256_permute2f128_ps(b0, b4, 0x31), _mm256_permute2f128_ps(b1, b5, 0x31),
+                         _mm256_permute2f128_ps(b2, b6, 0x31), _mm256_permute2f128_ps(b3, b7, 0x31)};
+  alignas(32) float last[8];
+  _mm256_store_ps(last, f.nz);
+  for (uint32_t i = 0; i < 8; ++i) {
+    float* frame = &frames[v + i][0].x;
+    _mm256_storeu_ps(frame, row[i]);
+    frame[8] = last[i];
+  }
+  avx2::store_vec3(u, umbrellas + v);
+}
+
+}  // namespace avx8
+
+// lane_frames in eight lanes, from `first`. Returns the vertex it stopped at.
+__attribute__((target("avx2"))) uint32_t lane_frames_avx2(const FairingTopology& topology, const glm::vec3* skeletal,
+                                                          const glm::vec3* positions, glm::mat3* frames,
+                                                          const FairingRest& rest, glm::vec3* umbrellas,
+                                                          float* mean_edges, uint32_t first) {
+  const uint32_t vertex_count = topology.vertex_count;
+  const uint32_t* neighbours = topology.neighbours.data();
+  uint32_t v = first;
+  for (; v + 8 <= vertex_count; v += 8) {
+    const avx8::Rings r = avx8::rings(topology.neighbour_offsets.data(), v);
+    avx8::Frames f = avx8::basis(positions, skeletal, neighbours, r);
+    const avx8::Sums s = avx8::ring_sums(positions, neighbours, rest.edge_2d.data(), r, f);
+    avx8::turn(s, f);
+    avx8::store(f, s, r, v, frames, umbrellas, mean_edges);
+    const int fallback = ~_mm256_movemask_ps(f.main) & 0xff;
+    if (fallback != 0)
+      for (uint32_t i = 0; i < 8; ++i)
+        if (fallback & (1 << i))
+          vertex_frame(topology, skeletal, positions, v + i, frames, &rest, true, umbrellas, mean_edges);
+  }
+  return v;
+}
+#endif
+
 }  // namespace
+
+namespace fair_detail {
+
+bool frame_kernel_available(FrameKernel kernel) {
+  switch (kernel) {
+    case FrameKernel::portable:
+      return true;
+    case FrameKernel::sse2:
+#if defined(__SSE2__)
+      return true;
+#else
+      return false;
+#endif
+    case FrameKernel::avx2:
+      return cpu_has_avx2();
+  }
+  return false;
+}
+
+void fairing_frames_with(FrameKernel kernel, const FairingTopology& topology, const glm::vec3* skeletal,
+                         const glm::vec3* positions, glm::mat3* frames, const FairingRest* rest, glm::vec3* umbrellas,
+                         float* mean_edges) {
+  const bool procrustes = rest && rest->edge_2d.size() == topology.neighbours.size();
+  // The lanes compute the frames with the rest fit, the umbrellas and the mean edges together.
+  const bool lanes = procrustes && umbrellas && mean_edges && frame_kernel_available(kernel);
+  uint32_t v = 0;
+#if defined(SKELFORM_HAS_AVX2_KERNELS)
+  if (lanes && kernel == FrameKernel::avx2 && gather_offsets_fit(topology.vertex_count) &&
+      gather_offsets_fit(topology.neighbours.size()))
+    v = lane_frames_avx2(topology, skeletal, positions, frames, *rest, umbrellas, mean_edges, v);
+#endif
+#if defined(__SSE2__)
+  if (lanes && kernel != FrameKernel::portable)
+    v = lane_frames(topology, skeletal, positions, frames, *rest, umbrellas, mean_edges, v);
+#endif
+  (void)lanes;
+  for (; v < topology.vertex_count; ++v)
+    vertex_frame(topology, skeletal, positions, v, frames, rest, procrustes, umbrellas, mean_edges);
+}
+
+}  // namespace fair_detail
 
 void fairing_frames(const FairingTopology& topology, const glm::vec3* skeletal, const glm::vec3* positions,
                     glm::mat3* frames, const FairingRest* rest, glm::vec3* umbrellas, float* mean_edges) {
-  const bool procrustes = rest && rest->edge_2d.size() == topology.neighbours.size();
-  uint32_t v = 0;
-#if defined(__SSE2__)
-  if (procrustes && umbrellas && mean_edges)
-    v = lane_frames(topology, skeletal, positions, frames, *rest, umbrellas, mean_edges);
-#endif
-  for (; v < topology.vertex_count; ++v)
-    vertex_frame(topology, skeletal, positions, v, frames, rest, procrustes, umbrellas, mean_edges);
+  using fair_detail::FrameKernel;
+  fair_detail::fairing_frames_with(cpu_has_avx2() ? FrameKernel::avx2 : FrameKernel::sse2, topology, skeletal,
+                                   positions, frames, rest, umbrellas, mean_edges);
 }
 
 FairingRest make_fairing_rest(const FairingTopology& topology, const glm::vec3* skeletal, const float* radius,

@@ -39,6 +39,16 @@ constexpr float kRestShapeRadius = 3.0f;
 // (intersection_step).
 constexpr float kIntersectionMargin = 0.75f;
 
+// The forms of fairing_frames' pass (fair_frames.cpp), for the tests that compare them: each
+// gives the portable loop's bits. `avx2` runs eight vertices at a time, then four, then one;
+// `sse2` four, then one.
+enum class FrameKernel { portable, sse2, avx2 };
+bool frame_kernel_available(FrameKernel kernel);
+// fairing_frames in the given form (one not available on this CPU or build: the portable one).
+void fairing_frames_with(FrameKernel kernel, const FairingTopology& topology, const glm::vec3* skeletal,
+                         const glm::vec3* positions, glm::mat3* frames, const FairingRest* rest, glm::vec3* umbrellas,
+                         float* mean_edges);
+
 inline bool finite(const glm::vec3& v) { return std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z); }
 
 // The rest values the flows are measured from (FairingRest), in this evaluation's frames;

@@ -608,6 +608,79 @@ TEST_CASE("fair: the rest targets keep to a workspace grid smaller than the defa
   CHECK(by_default.gap == explicit_8.gap);
 }
 
+TEST_CASE("fair: the frames' lanes (AVX2, SSE2) give the portable loop's bits, fallbacks included") {
+  // fairing_frames with the rest fit, umbrellas and mean edges (fair_stage's call) in each form,
+  // on the bent capsule with `isolated` vertices inserted among its own (no one-ring: the
+  // fallback frame), one vertex at its skeletal point (medial radius 0: the area-weighted
+  // normal) and one whose first neighbour lies along its normal (the tangent from a later
+  // edge), so that fallback lanes fall inside blocks and the tails differ.
+  using fair_detail::FrameKernel;
+  const BentCapsule scene;
+  const std::vector<uint32_t> indices = flat_indices(scene.rest);
+  const std::vector<glm::vec3> skeletal_posed = scene.skeletal_deformed(), unfaired = scene.reconstructed();
+  std::vector<std::string> compared;
+  for (const uint32_t isolated : {1u, 4u, 7u}) {
+    CAPTURE(isolated);
+    // Old vertex v becomes v + (the isolated ones before it); isolated k sits at 37 k + 9.
+    const auto moved_to = [&](uint32_t v) {
+      uint32_t shift = 0;
+      while (shift < isolated && 37 * shift + 9 <= v + shift) ++shift;
+      return v + shift;
+    };
+    const uint32_t n = uint32_t(scene.rest.positions.size()) + isolated;
+    std::vector<uint32_t> triangles(indices.size());
+    std::transform(indices.begin(), indices.end(), triangles.begin(), moved_to);
+    std::vector<glm::vec3> rest(n, glm::vec3(0.5f, -0.25f, 1.0f)), skeletal_rest(n, glm::vec3(0.0f));
+    std::vector<glm::vec3> skeletal(n, glm::vec3(0.0f)), positions(n, glm::vec3(0.5f, -0.25f, 1.0f));
+    std::vector<float> radius(n, 0.0f);
+    for (uint32_t v = 0; v < scene.rest.positions.size(); ++v) {
+      const uint32_t to = moved_to(v);
+      rest[to] = glm::vec3(scene.rest.positions[v]);
+      skeletal_rest[to] = scene.skeletal_rest[v];
+      radius[to] = scene.radius[v];
+      skeletal[to] = skeletal_posed[v];
+      positions[to] = unfaired[v];
+    }
+    Fairing fairing(scene.rest);
+    fairing.topology = build_fairing_topology(triangles.data(), triangles.size() / 3, n, {});
+    fairing.workspace = make_fairing_workspace(fairing.topology, 20, {});
+    const FairingTopology& topology = fairing.topology;
+    const FairingRest fairing_rest =
+        make_fairing_rest(topology, skeletal_rest.data(), radius.data(), rest.data(), 20, fairing.workspace, {});
+    // Medial radius 0 at one vertex; another's first neighbour along its normal.
+    const uint32_t flat = moved_to(100), turned = moved_to(211);
+    skeletal[flat] = positions[flat];
+    const uint32_t first = topology.neighbours[topology.neighbour_offsets[turned]];
+    positions[first] = positions[turned] + 0.5f * (positions[turned] - skeletal[turned]);
+
+    std::vector<glm::mat3> frames(n), want_frames(n);
+    std::vector<glm::vec3> umbrellas(n), want_umbrellas(n);
+    std::vector<float> mean_edges(n), want_mean_edges(n);
+    fair_detail::fairing_frames_with(FrameKernel::portable, topology, skeletal.data(), positions.data(),
+                                     want_frames.data(), &fairing_rest, want_umbrellas.data(), want_mean_edges.data());
+    for (uint32_t v : {flat, turned}) CHECK(finite(want_frames[v][0]));
+    // The fallbacks are taken: the flat vertex's normal is not along M − S (which is 0).
+    CHECK(want_frames[flat][2] != glm::vec3(0.0f, 0.0f, 1.0f));
+    for (const FrameKernel kernel : {FrameKernel::sse2, FrameKernel::avx2}) {
+      const std::string name = kernel == FrameKernel::sse2 ? "sse2" : "avx2";
+      if (!fair_detail::frame_kernel_available(kernel)) continue;
+      CAPTURE(name);
+      if (isolated == 1) compared.push_back(name);
+      std::fill(frames.begin(), frames.end(), glm::mat3(-7.0f));
+      std::fill(umbrellas.begin(), umbrellas.end(), glm::vec3(-7.0f));
+      std::fill(mean_edges.begin(), mean_edges.end(), -7.0f);
+      fair_detail::fairing_frames_with(kernel, topology, skeletal.data(), positions.data(), frames.data(),
+                                       &fairing_rest, umbrellas.data(), mean_edges.data());
+      CHECK(std::memcmp(frames.data(), want_frames.data(), n * sizeof(glm::mat3)) == 0);
+      CHECK(std::memcmp(umbrellas.data(), want_umbrellas.data(), n * sizeof(glm::vec3)) == 0);
+      CHECK(std::memcmp(mean_edges.data(), want_mean_edges.data(), n * sizeof(float)) == 0);
+    }
+  }
+  std::string forms;
+  for (const std::string& name : compared) forms += " " + name;
+  MESSAGE("frame lanes compared with the portable loop:" << (forms.empty() ? " none on this CPU/build" : forms));
+}
+
 TEST_CASE("fair: the rest pose is nearly a fixed point - runs are deterministic / finite and scale-invariant") {
   const BentCapsule scene;
   std::vector<glm::vec3> rest;
