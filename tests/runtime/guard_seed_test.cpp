@@ -61,8 +61,9 @@ struct Seeded {
     const uint32_t n = scene.torus.vertex_count(), t = scene.torus.triangle_count();
     positions.resize(n);
     moved.resize(n + 3);
-    tested.resize(t);
-    wanted.resize(scene.hierarchy.slot_stride());
+    // Not the flags any form writes: each must write every one (those past the slots stay).
+    tested.assign(t, 0xab);
+    wanted.assign(scene.hierarchy.slot_stride(), 0xab);
     boxes.resize(scene.hierarchy);
     test_list.reserve(t);
   }
