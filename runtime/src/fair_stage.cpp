@@ -9,6 +9,7 @@
 // evaluation, a pose jump, SF_EVAL_FROM_REST) the correction is 0 and the flows converge: in
 // that evaluation when the caller asked for it, else over it and the next ones (instance.h
 // kFreshStartChunks).
+#include "fair_shapes.h"
 #include "instance.h"
 
 #include <glm/geometric.hpp>
@@ -56,20 +57,15 @@ namespace {
 // vertices changed by more than kPoseJumpShape.
 uint32_t record_local_shapes(sf_instance& instance, const glm::mat3* frames) {
   const Deformable& d = *instance.deformable;
-  const FairingTopology& topo = d.fairing_topology;
-  const uint32_t n = d.control_vertex_count;
-  uint32_t changed = 0;
-  for (uint32_t v = 0; v < n; ++v) {
-    const uint32_t begin = topo.neighbour_offsets[v], end = topo.neighbour_offsets[v + 1];
-    if (begin == end) continue;
-    const float edge = std::max(instance.fairing.mean_edge[v], 1e-30f);
-    const glm::vec3 shape = glm::transpose(frames[v]) * instance.fairing.reference_umbrella[v] / edge;
-    const float change = glm::length(shape - instance.fairing.shape[v]);
-    if (!(change <= kPoseJumpShape)) ++changed;  // NaN counts as changed
-    instance.fairing.shape[v] = shape;
-    instance.fairing.rest_change[v] = glm::length(shape - d.fairing_rest.umbrella[v] / edge);
-  }
-  return changed;
+  FairingState& f = instance.fairing;
+  const ShapeRecord record{d.fairing_topology.neighbour_offsets.data(),
+                           frames,
+                           f.reference_umbrella.data(),
+                           f.mean_edge.data(),
+                           d.fairing_rest.umbrella.data(),
+                           f.shape.data(),
+                           f.rest_change.data()};
+  return record_shapes(record, d.control_vertex_count, kPoseJumpShape);
 }
 
 // The skin driver's vertices kept out of this evaluation's flows (FairingState::fixed): the
