@@ -428,7 +428,7 @@ bool ramp_factors(const ContactMesh& mesh, GuardWorkspace& ws) {
 // welded vertex first (GuardWorkspace::volume_base, volume_delta): the triangles then read
 // them in place, each vertex converted and scaled once rather than at each of its triangles.
 void volume_cubic(const ContactMesh& mesh, const glm::dvec3* base, const glm::dvec3* delta, double v[4]) {
-  volume_cubic_sums(mesh.triangles.data(), mesh.triangle_count, mesh.vertex_count, base, delta, v);
+  volume_cubic_sums(mesh.triangles.data(), mesh.triangle_count, base, delta, v);
   v[0] /= 6.0, v[1] /= 6.0, v[2] /= 6.0, v[3] /= 6.0;
 }
 
@@ -438,14 +438,14 @@ void volume_cubic(const ContactMesh& mesh, const glm::dvec3* base, const glm::dv
 // and V(0), and the cubic's V(1) = v[0] + v[1] + v[2] + v[3] and v[0] adds T determinants, each
 // within a few units of double rounding of its triangle's product, and any order of adding T
 // terms is within (T − 1)·2^-53 of their absolute sum. So this V(1) differs from the cubic's by
-// e₁ ≤ 4(T + 32)·2^-52·S and this V(0) from v[0] by e₀ below the same (V(0) was v[0] bit for bit
-// when both summed in triangle order; the lanes sum in another): if |V(1) − target| + e₀ + e₁
-// ≤ |V(0) − target|, the cubic's |V(1) − target| ≤ |v[0] − target| too, and its test
+// e₁ ≤ 4(T + 32)·2^-52·S and this V(0) from v[0] by e₀ below the same (both now sum in
+// triangle order, so e₀ = 0; the bound does not count on it): if |V(1) − target| + e₀ + e₁ ≤
+// |V(0) − target|, the cubic's |V(1) − target| ≤ |v[0] − target| too, and its test
 // (volume_share) says yes. Elsewhere the caller expands the cubic and decides as before.
 // `norm` per welded vertex: |base|₁ + |delta|₁.
 bool volume_within(const ContactMesh& mesh, const glm::dvec3* base, const glm::dvec3* delta, const double* norm,
                    double target) {
-  const VolumeSums sums = volume_sums(mesh.triangles.data(), mesh.triangle_count, mesh.vertex_count, base, delta, norm);
+  const VolumeSums sums = volume_sums(mesh.triangles.data(), mesh.triangle_count, base, delta, norm);
   const double rounding = 8.0 * (double(mesh.triangle_count) + 32.0) * std::ldexp(1.0, -52) * sums.scale;
   return std::fabs(sums.at_one / 6.0 - target) + rounding <= std::fabs(sums.at_zero / 6.0 - target);
 }
@@ -465,7 +465,7 @@ bool volume_polynomial(const Deformable& d, const ContactMesh& mesh, const Dense
   }
   const glm::dvec3 centre = 0.5 * (glm::dvec3(lo) + glm::dvec3(hi));
   // (Only volume_within reads the norms.)
-  volume_points(mesh.vertex_count, d.vertex_count, mesh.representative.data(), lbs.positions, skelform.positions,
+  volume_points(mesh.vertex_count, mesh.representative.data(), lbs.positions, skelform.positions,
                 d.skelform_weight.data(), ws.factor.data(), centre, ws.volume_base.data(), ws.volume_delta.data(),
                 within_target ? ws.volume_norm.data() : nullptr);
   if (within_target &&
