@@ -30,7 +30,6 @@
 // diagonal). This file is compiled with -fno-math-errno (runtime/CMakeLists.txt): sqrt of a
 // negative number never reaches it, the runtime never reads errno, and GCC only vectorises
 // sqrt without errno.
-#include "avx2_lanes.h"
 #include "cpu.h"
 #include "displace_block.h"
 #include "instance.h"
@@ -63,52 +62,14 @@ void exact_vertex(const Deformable& d, const glm::vec3* refined, const glm::vec3
   if (kTangents) out.tangents[v] = glm::vec4(in_frame(frame, d.rest_tangent_coords[v]), d.rest_tangents[v].w);
 }
 
-#if defined(SKELFORM_HAS_AVX2_KERNELS)
-// interpolate_block's vertices [0, 8·⌊count/8⌋), eight at a time: the barycentric pairs split
-// into b1s and b2s, the corners' coordinates gathered, each lane the scalar loop's operations in
-// its order, so its bits. Returns where it stopped. The refined vertices must take int32 gather
-// offsets (gather_offsets_fit).
-__attribute__((target("avx2"))) uint32_t interpolate_avx2(const uint32_t* corners, const glm::vec2* barycentric,
-                                                          const glm::vec3* refined, const glm::vec3* refined_normal,
-                                                          uint32_t count, Block& b) {
-  static_assert(sizeof(glm::vec2) == 2 * sizeof(float), "vec2 is two packed floats");
-  const __m256i rows = _mm256_setr_epi32(0, 3, 6, 9, 12, 15, 18, 21);  // a corner of eight vertices
-  const __m256i split = _mm256_setr_epi32(0, 2, 4, 6, 1, 3, 5, 7);     // (b1, b2) pairs to b1s, b2s
-  uint32_t i = 0;
-  for (; i + 8 <= count; i += 8) {
-    const float* bary = &barycentric[i].x;
-    const __m256 low = _mm256_permutevar8x32_ps(_mm256_loadu_ps(bary), split);       // vertices 0-3
-    const __m256 high = _mm256_permutevar8x32_ps(_mm256_loadu_ps(bary + 8), split);  // 4-7
-    const __m256 b1 = _mm256_permute2f128_ps(low, high, 0x20), b2 = _mm256_permute2f128_ps(low, high, 0x31);
-    const __m256 b0 = _mm256_sub_ps(_mm256_sub_ps(_mm256_set1_ps(1.0f), b1), b2);
-    __m256i corner3[3];
-    for (int k = 0; k < 3; ++k) {
-      const __m256i c = avx2::gather_epi32(reinterpret_cast<const int*>(corners + 3 * size_t{i}) + k, rows);
-      corner3[k] = _mm256_add_epi32(c, _mm256_add_epi32(c, c));
-    }
-    for (int k = 0; k < 3; ++k) {
-      const __m256 p0 = avx2::gather_axis(refined, k, corner3[0]), p1 = avx2::gather_axis(refined, k, corner3[1]);
-      const __m256 p2 = avx2::gather_axis(refined, k, corner3[2]);
-      const __m256 n0 = avx2::gather_axis(refined_normal, k, corner3[0]);
-      const __m256 n1 = avx2::gather_axis(refined_normal, k, corner3[1]);
-      const __m256 n2 = avx2::gather_axis(refined_normal, k, corner3[2]);
-      _mm256_storeu_ps(&b.q[k][i], _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(b0, p0), _mm256_mul_ps(b1, p1)),
-                                                 _mm256_mul_ps(b2, p2)));
-      _mm256_storeu_ps(&b.m[k][i], _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(b0, n0), _mm256_mul_ps(b1, n1)),
-                                                 _mm256_mul_ps(b2, n2)));
-      _mm256_storeu_ps(&b.e[k][i], _mm256_sub_ps(p1, p0));
-    }
-  }
-  return i;
-}
-#endif
-
 // interpolate_block (displace_block.h) from vertex `i` on: with SSE2 four at a time, each corner
 // read as one vector (vec3_sse.h; the refined buffers are padded, instance.h), x, y and z
 // interpolated together (lane by lane the scalar loop's operations in its order, so its bits)
-// and the four results transposed into the block's rows; the rest one at a time.
-void interpolate_baseline(const uint32_t* corners, const glm::vec2* barycentric, const glm::vec3* refined,
-                          const glm::vec3* refined_normal, uint32_t i, uint32_t count, Block& b) {
+// and the four results transposed into the block's rows; the rest one at a time. (An AVX2 form
+// that gathered eight vertices' corners took longer: 13.2 against 9.6 us per CesiumMan
+// evaluation, 164 against 118 us on CesiumMan_loop2.)
+void interpolate(const uint32_t* corners, const glm::vec2* barycentric, const glm::vec3* refined,
+                 const glm::vec3* refined_normal, uint32_t i, uint32_t count, Block& b) {
   const uint32_t* corner = corners + 3 * size_t{i};
 #if defined(__SSE2__)
   const sse::PaddedVec3Reader read(refined), read_normal(refined_normal);
@@ -146,25 +107,11 @@ void interpolate_baseline(const uint32_t* corners, const glm::vec2* barycentric,
   }
 }
 
-// A block's bound points, interpolated normals and edges (interpolate_block), in the fastest
-// form this CPU runs. `refined_count`: the refined vertices the corners index.
-void interpolate(bool avx2, const uint32_t* corners, const glm::vec2* barycentric, const glm::vec3* refined,
-                 const glm::vec3* refined_normal, uint32_t refined_count, uint32_t count, Block& b) {
-  uint32_t done = 0;
-#if defined(SKELFORM_HAS_AVX2_KERNELS)
-  if (avx2 && cpu_has_avx2() && gather_offsets_fit(refined_count))
-    done = interpolate_avx2(corners, barycentric, refined, refined_normal, count, b);
-#else
-  (void)avx2, (void)refined_count;
-#endif
-  interpolate_baseline(corners, barycentric, refined, refined_normal, done, count, b);
-}
-
 template <bool kNormals, bool kTangents>
 void gather(const Deformable& d, const glm::vec3* refined, const glm::vec3* refined_normal, uint32_t first,
             uint32_t count, Block& b) {
-  interpolate(true, d.binding_corners.data() + 3 * size_t{first}, d.binding_barycentric.data() + first, refined,
-              refined_normal, d.refined_vertex_count, count, b);
+  interpolate(d.binding_corners.data() + 3 * size_t{first}, d.binding_barycentric.data() + first, refined,
+              refined_normal, 0, count, b);
   // The per-vertex data, contiguous: plain copies the compiler vectorises.
   const float* displacement = d.binding_displacement.data() + first;
   const glm::vec2* residual = d.binding_residual.data() + first;
@@ -320,10 +267,9 @@ void primitive_face_normals(const Deformable& d, const PrimitiveRecord& primitiv
 
 }  // namespace
 
-void displace_detail::interpolate_block(bool avx2, const uint32_t* corners, const glm::vec2* barycentric,
-                                        const glm::vec3* refined, const glm::vec3* refined_normal,
-                                        uint32_t refined_count, uint32_t count, Block& b) {
-  interpolate(avx2, corners, barycentric, refined, refined_normal, refined_count, count, b);
+void displace_detail::interpolate_block(const uint32_t* corners, const glm::vec2* barycentric, const glm::vec3* refined,
+                                        const glm::vec3* refined_normal, uint32_t count, Block& b) {
+  interpolate(corners, barycentric, refined, refined_normal, 0, count, b);
 }
 
 void displace_detail::evaluate_block(bool avx2, uint32_t count, Block& b) {

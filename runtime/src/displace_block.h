@@ -24,11 +24,10 @@ struct Block {
 
 // The first stage of a block, over its first `count` vertices: each vertex's bound point q,
 // interpolated normal m and edge e from the corners of its refined triangle (`corners`, 3 per
-// vertex, each < refined_count; the refined buffers padded as instance.h pads them) and its
-// barycentric coordinates (b1, b2). Four vertices at a time at x86-64's baseline, or with
-// `avx2` eight where the build has AVX2 kernels and the CPU runs them; both give the same bits.
-void interpolate_block(bool avx2, const uint32_t* corners, const glm::vec2* barycentric, const glm::vec3* refined,
-                       const glm::vec3* refined_normal, uint32_t refined_count, uint32_t count, Block& b);
+// vertex; the refined buffers padded as instance.h pads them) and its barycentric coordinates
+// (b1, b2). Four vertices at a time at x86-64's baseline, with the scalar loop's bits.
+void interpolate_block(const uint32_t* corners, const glm::vec2* barycentric, const glm::vec3* refined,
+                       const glm::vec3* refined_normal, uint32_t count, Block& b);
 
 // The formula over the block's first `count` vertices, with normals and tangents, as displace.cpp
 // compiles it: four lanes wide (x86-64's baseline), or with `avx2` eight where the build has
