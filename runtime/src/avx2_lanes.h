@@ -1,8 +1,7 @@
-// Lane helpers of the runtime's AVX2 kernels (guard_seed.h, guard_blend.h, hull_block.h,
-// fair_shapes.h, rest_clearance.cpp, fair_frames.cpp): gathers with every lane enabled and a
-// zero source (GCC 12 warns that the unmasked forms read an uninitialised one), std::isfinite
-// lane by lane, and eight vec3 lanes stored back as vectors. Only where cpu.h compiles AVX2
-// kernels.
+// Lane helpers of the runtime's AVX2 kernels (guard_seed.h, hull_block.h, fair_shapes.h,
+// rest_clearance.cpp, fair_frames.cpp): gathers with every lane enabled and a zero source (GCC
+// 12 warns that the unmasked forms read an uninitialised one), std::isfinite lane by lane, and
+// eight vec3 lanes stored back as vectors. Only where cpu.h compiles AVX2 kernels.
 #pragma once
 
 #include "cpu.h"
