@@ -1,8 +1,8 @@
 #!/bin/sh
 # CTest bench_smoke: skelform-bench --json --smoke must print one JSON line per mesh (2-3) with
-# every method's figure, --crowd 4 --smoke its line, --frames CesiumMan 2 and 0 theirs, and
-# --frames refuses an unknown or empty mesh, a negative count and a second --frames. Skips (77)
-# without the shared data.
+# every method's figure, --crowd 4 --smoke its line, --frames CesiumMan 2 and 0 theirs (and with
+# --runs 2 its timed line), and --frames refuses an unknown or empty mesh, a negative count, a
+# second --frames and another option. Skips (77) without the shared data.
 #
 #   bench_smoke.sh SKELFORM_BENCH DATA_DIR
 BENCH=$1 DATA=${SKELFORM_DATA_DIR:-$2}
@@ -39,3 +39,9 @@ printf '%s\n' "$frames" | grep -q '^{"mesh": "CesiumMan", "vertices": 3273, "fra
 if "$BENCH" --frames CesiumMan -1 >/dev/null 2>&1; then echo "FAIL: --frames took -1 frames"; exit 1; fi
 if "$BENCH" --frames "" 2 >/dev/null 2>&1; then echo "FAIL: --frames took an empty mesh name"; exit 1; fi
 if "$BENCH" --frames CesiumMan 1 --frames Horse 1 >/dev/null 2>&1; then echo "FAIL: --frames given twice"; exit 1; fi
+# --frames MESH N --runs R: the timed passes' best and median; another option is refused.
+frames=$("$BENCH" --frames CesiumMan 2 --runs 2 2>/dev/null) || { echo "FAIL: --frames CesiumMan 2 --runs 2 exited $?"; exit 1; }
+echo "$frames"
+printf '%s\n' "$frames" | grep -q '^{"mesh": "CesiumMan", "vertices": 3273, "frames": 2, "runs": 2, "us_best": [0-9.]*, "us_median": [0-9.]*}$' \
+  || { echo "FAIL: unexpected --frames --runs output"; exit 1; }
+if "$BENCH" --frames CesiumMan 1 --cpu >/dev/null 2>&1; then echo "FAIL: --frames took --cpu"; exit 1; fi

@@ -32,6 +32,8 @@
 //                                               baked with the defaults, its first animation
 //                                               played), untimed: for a profiler
 //                                               (bench/instructions.sh); 0 = load and set up only
+//   skelform-bench --frames MESH N --runs R     then R passes of N more frames, timed: the best
+//                                               and median thread CPU µs per evaluation
 //   skelform-bench --markdown [--runs N]        the README's speed table (CPU time, the median
 //                                               of N runs, ratios against lbs_optimised)
 //   skelform-bench --json [--smoke] [--cpu] [--runs N]  one JSON line per mesh:
@@ -613,7 +615,11 @@ int run_crowd(size_t count, bool smoke) {
 // runs it under callgrind with N, 1 and 0 frames: the difference of N and 1 over N − 1 is the
 // instructions of a warm evaluation (setup and the first, converging one cancel out), that of
 // 1 and 0 the first evaluation's (a fresh start, as after a pose jump).
-int run_frames(const std::string& mesh, long frames) {
+// With `runs` > 0, then `runs` timed passes of N more frames each (the animation going on), and
+// the best and the median thread CPU time per evaluation over the passes: a change's speed on
+// this machine, whose speed moves within a session, is judged by the best of such passes taken
+// in turns with the build before.
+int run_frames(const std::string& mesh, long frames, int runs) {
   const MeshCase* chosen = nullptr;
   for (const MeshCase& mesh_case : kMeshes)
     if (mesh == mesh_case.name) chosen = &mesh_case;
@@ -645,7 +651,22 @@ int run_frames(const std::string& mesh, long frames) {
   }
   Scene& s = scene(*chosen);
   for (long f = 0; f < frames; ++f) s.evaluate(Method::skelform, size_t(f));
-  std::printf("{\"mesh\": \"%s\", \"vertices\": %zu, \"frames\": %ld}\n", chosen->name, s.vertex_count(), frames);
+  if (runs == 0 || frames == 0) {
+    std::printf("{\"mesh\": \"%s\", \"vertices\": %zu, \"frames\": %ld}\n", chosen->name, s.vertex_count(), frames);
+    return 0;
+  }
+  std::vector<double> pass_us;
+  for (int r = 1; r <= runs; ++r) {
+    const double start = now_ms(true);
+    for (long f = 0; f < frames; ++f) s.evaluate(Method::skelform, size_t(r * frames + f));
+    pass_us.push_back((now_ms(true) - start) * 1e3 / double(frames));
+  }
+  std::sort(pass_us.begin(), pass_us.end());
+  const double best = pass_us.front(), median = pass_us[pass_us.size() / 2];
+  std::printf(
+      "{\"mesh\": \"%s\", \"vertices\": %zu, \"frames\": %ld, \"runs\": %d, \"us_best\": %.1f, "
+      "\"us_median\": %.1f}\n",
+      chosen->name, s.vertex_count(), frames, runs, best, median);
   return 0;
 }
 
@@ -676,7 +697,7 @@ int main(int argc, char** argv) {
   bool json = false, markdown = false, smoke = false, cpu_time = false;
   int runs = 1;
   long crowd = 0, frames = 0;
-  bool frames_given = false;
+  bool frames_given = false, runs_given = false;
   std::string frames_mesh;
   std::vector<char*> passed{argv[0]};
   for (int i = 1; i < argc; ++i) {
@@ -696,6 +717,7 @@ int main(int argc, char** argv) {
         return 1;
       }
       runs = int(n);
+      runs_given = true;
     } else if (std::strcmp(argv[i], "--crowd") == 0 && i + 1 < argc) {
       char* end = nullptr;
       crowd = std::strtol(argv[++i], &end, 10);
@@ -721,11 +743,11 @@ int main(int argc, char** argv) {
   }
   try {
     if (frames_given) {
-      if (passed.size() > 1 || json || markdown || cpu_time || runs != 1 || smoke || crowd > 0) {
-        std::fprintf(stderr, "skelform-bench: error: --frames MESH N takes no other option\n");
+      if (passed.size() > 1 || json || markdown || cpu_time || smoke || crowd > 0) {
+        std::fprintf(stderr, "skelform-bench: error: --frames MESH N takes only --runs R\n");
         return 1;
       }
-      return run_frames(frames_mesh, frames);
+      return run_frames(frames_mesh, frames, runs_given ? runs : 0);
     }
     if (crowd > 0) {
       if (passed.size() > 1 || json || markdown || cpu_time || runs != 1) {
