@@ -2,6 +2,10 @@
 # Instructions per warm skelform evaluation on the bench's meshes, counted by callgrind: a
 # count that does not vary with the machine's load, for comparing two builds of one change
 # (time on a shared 2-core machine varies by a third between sessions; docs/results.md).
+# Instructions are not time: an AVX2 gather is one instruction and costs about one load per
+# lane, and forms that gathered ran fewer instructions in more time. Judge a change by time too:
+# `skelform-bench --frames MESH N --runs R` in turns with the build before (the best of the
+# passes), and a kernel by timing its forms on the same data.
 #
 #   bench/instructions.sh [SKELFORM_BENCH [FILE...]]   default build/bench/skelform-bench
 #
