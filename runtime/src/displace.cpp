@@ -62,15 +62,16 @@ void exact_vertex(const Deformable& d, const glm::vec3* refined, const glm::vec3
   if (kTangents) out.tangents[v] = glm::vec4(in_frame(frame, d.rest_tangent_coords[v]), d.rest_tangents[v].w);
 }
 
-// interpolate_block (displace_block.h) from vertex `i` on: with SSE2 four at a time, each corner
+// interpolate_block (displace_block.h): with SSE2 four at a time, each corner
 // read as one vector (vec3_sse.h; the refined buffers are padded, instance.h), x, y and z
 // interpolated together (lane by lane the scalar loop's operations in its order, so its bits)
 // and the four results transposed into the block's rows; the rest one at a time. (An AVX2 form
 // that gathered eight vertices' corners took longer: 13.2 against 9.6 us per CesiumMan
-// evaluation, 164 against 118 us on CesiumMan_loop2.)
+// evaluation, 164 against 117 us on CesiumMan_loop2.)
 void interpolate(const uint32_t* corners, const glm::vec2* barycentric, const glm::vec3* refined,
-                 const glm::vec3* refined_normal, uint32_t i, uint32_t count, Block& b) {
-  const uint32_t* corner = corners + 3 * size_t{i};
+                 const glm::vec3* refined_normal, uint32_t count, Block& b) {
+  const uint32_t* corner = corners;
+  uint32_t i = 0;
 #if defined(__SSE2__)
   const sse::PaddedVec3Reader read(refined), read_normal(refined_normal);
   for (; i + 4 <= count; i += 4) {
@@ -111,7 +112,7 @@ template <bool kNormals, bool kTangents>
 void gather(const Deformable& d, const glm::vec3* refined, const glm::vec3* refined_normal, uint32_t first,
             uint32_t count, Block& b) {
   interpolate(d.binding_corners.data() + 3 * size_t{first}, d.binding_barycentric.data() + first, refined,
-              refined_normal, 0, count, b);
+              refined_normal, count, b);
   // The per-vertex data, contiguous: plain copies the compiler vectorises.
   const float* displacement = d.binding_displacement.data() + first;
   const glm::vec2* residual = d.binding_residual.data() + first;
@@ -269,7 +270,7 @@ void primitive_face_normals(const Deformable& d, const PrimitiveRecord& primitiv
 
 void displace_detail::interpolate_block(const uint32_t* corners, const glm::vec2* barycentric, const glm::vec3* refined,
                                         const glm::vec3* refined_normal, uint32_t count, Block& b) {
-  interpolate(corners, barycentric, refined, refined_normal, 0, count, b);
+  interpolate(corners, barycentric, refined, refined_normal, count, b);
 }
 
 void displace_detail::evaluate_block(bool avx2, uint32_t count, Block& b) {

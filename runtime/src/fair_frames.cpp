@@ -25,8 +25,8 @@
 namespace skelform::runtime {
 namespace {
 
-// One vertex of fairing_frames (fair.h), fallbacks included: the reference the four-lane
-// path below reproduces, and what it falls back to.
+// One vertex of fairing_frames (fair.h), fallbacks included: the reference the four- and
+// eight-lane paths below reproduce, and what they fall back to.
 void vertex_frame(const FairingTopology& topology, const glm::vec3* skeletal, const glm::vec3* positions, uint32_t v,
                   glm::mat3* frames, const FairingRest* rest, bool procrustes, glm::vec3* umbrellas,
                   float* mean_edges) {
@@ -87,6 +87,16 @@ void vertex_frame(const FairingTopology& topology, const glm::vec3* skeletal, co
     }
   }
   frames[v] = glm::mat3(tangent, bitangent, normal);
+}
+
+// The lanes set in `fallback` (bit i: vertex v + i) recomputed by vertex_frame, fallbacks
+// included, with the rest fit, umbrellas and mean edges (the lanes' callers).
+void redo_lanes(unsigned fallback, const FairingTopology& topology, const glm::vec3* skeletal,
+                const glm::vec3* positions, uint32_t v, glm::mat3* frames, const FairingRest& rest,
+                glm::vec3* umbrellas, float* mean_edges) {
+  for (; fallback != 0; fallback &= fallback - 1)
+    vertex_frame(topology, skeletal, positions, v + uint32_t(__builtin_ctz(fallback)), frames, &rest, true, umbrellas,
+                 mean_edges);
 }
 
 #if defined(__SSE2__)
@@ -256,11 +266,8 @@ uint32_t lane_frames(const FairingTopology& topology, const glm::vec3* skeletal,
     const RingSums r = ring_sums(read, neighbours, rest.edge_2d.data(), v, rings, f);
     turn_lanes(r, f);
     store_lanes(f, r, rings, v, frames, umbrellas, mean_edges);
-    const int fallback = ~_mm_movemask_ps(f.main) & 0xf;
-    if (fallback != 0)
-      for (uint32_t i = 0; i < 4; ++i)
-        if (fallback & (1 << i))
-          vertex_frame(topology, skeletal, positions, v + i, frames, &rest, true, umbrellas, mean_edges);
+    redo_lanes(~unsigned(_mm_movemask_ps(f.main)) & 0xfu, topology, skeletal, positions, v, frames, rest, umbrellas,
+               mean_edges);
   }
   return v;
 }
@@ -443,11 +450,8 @@ __attribute__((target("avx2"))) uint32_t lane_frames_avx2(const FairingTopology&
     const avx8::Sums s = avx8::ring_sums(positions, neighbours, rest.edge_2d.data(), r, f);
     avx8::turn(s, f);
     avx8::store(f, s, r, v, frames, umbrellas, mean_edges);
-    const int fallback = ~_mm256_movemask_ps(f.main) & 0xff;
-    if (fallback != 0)
-      for (uint32_t i = 0; i < 8; ++i)
-        if (fallback & (1 << i))
-          vertex_frame(topology, skeletal, positions, v + i, frames, &rest, true, umbrellas, mean_edges);
+    redo_lanes(~unsigned(_mm256_movemask_ps(f.main)) & 0xffu, topology, skeletal, positions, v, frames, rest, umbrellas,
+               mean_edges);
   }
   return v;
 }

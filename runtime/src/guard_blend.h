@@ -4,7 +4,8 @@
 // (normalize_or: LBS's where the blend has no length); s = 0 gives LBS's vectors as they are.
 //
 // A plain loop: an AVX2 form eight vertices at a time (λ gathered through the weld) took longer
-// on the bench meshes, 14.7 against 12.9 us per CesiumMan evaluation.
+// on CesiumMan and CesiumMan_loop1 (14.7 against 12.9 us per CesiumMan evaluation), and about as
+// long on CesiumMan_loop2, where two runs split.
 #pragma once
 
 #include "contact.h"

@@ -612,8 +612,8 @@ TEST_CASE("fair: the frames' lanes (AVX2, SSE2) give the portable loop's bits, f
   // fairing_frames with the rest fit, umbrellas and mean edges (fair_stage's call) in each form,
   // on the bent capsule with `isolated` vertices inserted among its own (no one-ring: the
   // fallback frame), one vertex at its skeletal point (medial radius 0: the area-weighted
-  // normal) and one whose first neighbour lies along its normal (the tangent from a later
-  // edge), so that fallback lanes fall inside blocks and the tails differ.
+  // normal), one whose M − S overflows (the same), and one whose first neighbour lies along its
+  // normal (the tangent from a later edge), so that fallback lanes fall inside blocks and the tails differ.
   using fair_detail::FrameKernel;
   const BentCapsule scene;
   const std::vector<uint32_t> indices = flat_indices(scene.rest);
@@ -648,8 +648,10 @@ TEST_CASE("fair: the frames' lanes (AVX2, SSE2) give the portable loop's bits, f
     const FairingRest fairing_rest =
         make_fairing_rest(topology, skeletal_rest.data(), radius.data(), rest.data(), 20, fairing.workspace, {});
     // Medial radius 0 at one vertex; another's first neighbour along its normal.
-    const uint32_t flat = moved_to(100), turned = moved_to(211);
+    const uint32_t flat = moved_to(100), turned = moved_to(211), far = moved_to(150);
     skeletal[flat] = positions[flat];
+    // M − S whose length overflows (the fallback normal too).
+    skeletal[far] = positions[far] - glm::vec3(3e38f);
     const uint32_t first = topology.neighbours[topology.neighbour_offsets[turned]];
     positions[first] = positions[turned] + 0.5f * (positions[turned] - skeletal[turned]);
 
@@ -658,7 +660,7 @@ TEST_CASE("fair: the frames' lanes (AVX2, SSE2) give the portable loop's bits, f
     std::vector<float> mean_edges(n), want_mean_edges(n);
     fair_detail::fairing_frames_with(FrameKernel::portable, topology, skeletal.data(), positions.data(),
                                      want_frames.data(), &fairing_rest, want_umbrellas.data(), want_mean_edges.data());
-    for (uint32_t v : {flat, turned}) CHECK(finite(want_frames[v][0]));
+    for (uint32_t v : {flat, turned, far}) CHECK(finite(want_frames[v][0]));
     // The fallbacks are taken: the flat vertex's normal is not along M − S (which is 0).
     CHECK(want_frames[flat][2] != glm::vec3(0.0f, 0.0f, 1.0f));
     for (const FrameKernel kernel : {FrameKernel::sse2, FrameKernel::avx2}) {

@@ -116,8 +116,8 @@ TEST_CASE("guard seed: the blend, its moved vertices, the boxes and the listed t
         CHECK(portable.positions[c[k]][axis] <= box[3 + axis]);
       }
     const bool moved = portable.moved[c[0]] || portable.moved[c[1]] || portable.moved[c[2]];
-    CHECK(bool(portable.tested[t]) == moved);
-    CHECK(bool(portable.wanted[slot]) == moved);
+    CHECK(portable.tested[t] == uint8_t(moved));
+    CHECK(portable.wanted[slot] == uint8_t(moved));
     listed_count += moved;
   }
   CHECK(portable.test_list.size() == listed_count);

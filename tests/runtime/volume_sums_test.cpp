@@ -80,7 +80,7 @@ TEST_CASE("volume points: base and delta are the guard's blend about the centre,
   for (uint32_t w = 0; w < torus.vertex_count(); ++w) {
     const uint32_t r = points.representative[w];
     const double s = double(points.weight[r]) * double(points.factor[w]);
-    // L + s·(K − L) in float is the guard's x; base + delta is it about the centre, in double.
+    // x = L + s·(K − L), the guard's blend (here in double); base + delta is x about the centre.
     const glm::dvec3 x = glm::dvec3(points.lbs[r]) + s * (glm::dvec3(points.skelform[r]) - glm::dvec3(points.lbs[r]));
     CHECK(points.base[w] == glm::dvec3(points.lbs[r]) - centre);
     CHECK(glm::length(points.base[w] + points.delta[w] - (x - centre)) <= 1e-12);
