@@ -45,3 +45,4 @@ echo "$frames"
 printf '%s\n' "$frames" | grep -q '^{"mesh": "CesiumMan", "vertices": 3273, "frames": 2, "runs": 2, "us_best": [0-9.]*, "us_median": [0-9.]*}$' \
   || { echo "FAIL: unexpected --frames --runs output"; exit 1; }
 if "$BENCH" --frames CesiumMan 1 --cpu >/dev/null 2>&1; then echo "FAIL: --frames took --cpu"; exit 1; fi
+if "$BENCH" --frames CesiumMan 0 --runs 2 >/dev/null 2>&1; then echo "FAIL: --frames MESH 0 took --runs"; exit 1; fi

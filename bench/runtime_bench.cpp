@@ -615,10 +615,12 @@ int run_crowd(size_t count, bool smoke) {
 // runs it under callgrind with N, 1 and 0 frames: the difference of N and 1 over N − 1 is the
 // instructions of a warm evaluation (setup and the first, converging one cancel out), that of
 // 1 and 0 the first evaluation's (a fresh start, as after a pose jump).
-// With `runs` > 0, then `runs` timed passes of N more frames each (the animation going on), and
-// the best and the median thread CPU time per evaluation over the passes: a change's speed on
-// this machine, whose speed moves within a session, is judged by the best of such passes taken
-// in turns with the build before.
+// With `runs` > 0, then `runs` timed passes of N more frames each, and the best and the median
+// thread CPU time per evaluation over the passes: a change's speed on this machine, whose speed
+// moves within a session, is judged by the best of such passes taken in turns with the build
+// before. The passes go on with the animation (a replayed window would start each pass with a
+// pose jump), so each plays its own stretch of it, the same stretches for every build: compare
+// builds at the same N and R.
 int run_frames(const std::string& mesh, long frames, int runs) {
   const MeshCase* chosen = nullptr;
   for (const MeshCase& mesh_case : kMeshes)
@@ -651,7 +653,7 @@ int run_frames(const std::string& mesh, long frames, int runs) {
   }
   Scene& s = scene(*chosen);
   for (long f = 0; f < frames; ++f) s.evaluate(Method::skelform, size_t(f));
-  if (runs == 0 || frames == 0) {
+  if (runs == 0) {
     std::printf("{\"mesh\": \"%s\", \"vertices\": %zu, \"frames\": %ld}\n", chosen->name, s.vertex_count(), frames);
     return 0;
   }
@@ -747,6 +749,10 @@ int main(int argc, char** argv) {
         std::fprintf(stderr, "skelform-bench: error: --frames MESH N takes only --runs R\n");
         return 1;
       }
+      if (runs_given && frames == 0) {
+        std::fprintf(stderr, "skelform-bench: error: --frames MESH 0 times nothing: --runs needs N > 0\n");
+        return 1;
+      }
       return run_frames(frames_mesh, frames, runs_given ? runs : 0);
     }
     if (crowd > 0) {
@@ -766,7 +772,9 @@ int main(int argc, char** argv) {
       return run_json(smoke, cpu_time, runs, markdown);
     }
     if (cpu_time || runs != 1) {
-      std::fprintf(stderr, "skelform-bench: error: --cpu and --runs belong to --json and --markdown\n");
+      std::fprintf(
+          stderr,
+          "skelform-bench: error: --cpu and --runs belong to --json and --markdown (--runs also to --frames)\n");
       return 1;
     }
     static char min_time[] = "--benchmark_min_time=0.01";
