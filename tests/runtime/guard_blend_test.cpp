@@ -1,6 +1,7 @@
 // The LBS guard's output blend (runtime/src/guard_blend.h): positions L + s·(K − L), normals
 // blended and renormalised (LBS's where the blend has no length), LBS's vectors as they are
-// where s = 0; and in place over K the same bits as into other buffers, over a range.
+// where s = 0; tangents as the normals with LBS's handedness; and in place over K the same bits
+// as into other buffers, over a range.
 #include "guard_blend.h"
 
 #include <doctest/doctest.h>
@@ -88,6 +89,31 @@ TEST_CASE("guard blend: the blend, its renormalised normals and LBS where s = 0"
   }
   CHECK(lbs_count > 0);
   CHECK(fallback_count >= 3);  // the opposite, huge and NaN normals
+}
+
+TEST_CASE("guard blend: tangents blend as the normals do and keep LBS's handedness") {
+  // Tangents whose directions are the normals': their blended directions must be the blended
+  // normals bit for bit, their w LBS's (K's is garbage), LBS's tangent itself where s = 0.
+  Scene scene(301);
+  std::vector<glm::vec4> lbs_t, k_t;
+  for (uint32_t v = 0; v < scene.n; ++v) {
+    lbs_t.emplace_back(scene.lbs_n[v], v % 2 ? 1.0f : -1.0f);
+    k_t.emplace_back(scene.k_n[v], 7.0f);
+  }
+  BlendInput in = scene.input(scene.k_p, scene.k_n);
+  in.skelform.tangents = k_t.data();
+  in.lbs.tangents = lbs_t.data();
+  std::vector<glm::vec3> p(scene.n), nrm(scene.n);
+  std::vector<glm::vec4> tangents(scene.n, glm::vec4(-5.0f));
+  blend_output(0, scene.n, in, true, true, {p.data(), nrm.data(), tangents.data()});
+  uint32_t blended = 0;
+  for (uint32_t v = 0; v < scene.n; ++v) {
+    const glm::vec3 direction(tangents[v]);
+    CHECK(std::memcmp(&direction, &nrm[v], sizeof direction) == 0);
+    CHECK(tangents[v].w == lbs_t[v].w);
+    blended += scene.weight[v] * scene.factor[scene.weld[v]] != 0.0f ? 1 : 0;
+  }
+  CHECK(blended > scene.n / 2);
 }
 
 TEST_CASE("guard blend: in place over K, the bits of a blend into other buffers") {
