@@ -1,7 +1,8 @@
 // Lane helpers of the runtime's AVX2 kernels (guard_seed.h, hull_block.h, fair_shapes.h,
 // rest_clearance.cpp, fair_frames.cpp): gathers with every lane enabled and a zero source (GCC
-// 12 warns that the unmasked forms read an uninitialised one), std::isfinite lane by lane, and
-// eight vec3 lanes stored back as vectors. Only where cpu.h compiles AVX2 kernels.
+// 12 warns that the unmasked forms read an uninitialised one), vec3s gathered into lanes and
+// glm::dot's order across them, std::isfinite lane by lane, and eight vec3 lanes stored back as
+// vectors. Only where cpu.h compiles AVX2 kernels.
 #pragma once
 
 #include "cpu.h"
@@ -53,6 +54,19 @@ __attribute__((target("avx2"))) inline __m256 finite(__m256 v) {
 __attribute__((target("avx2"))) inline __m256 gather_axis(const glm::vec3* p, int axis, __m256i index3) {
   static_assert(sizeof(glm::vec3) == 3 * sizeof(float), "vec3 is three packed floats");
   return gather_ps(&p[0].x + axis, index3);
+}
+
+// The vec3s p[index] as lanes of x, y and z (vector indices, whose offsets 3·index + 2 take
+// int32: gather_offsets_fit).
+__attribute__((target("avx2"))) inline void gather_vec3(const glm::vec3* p, __m256i index, __m256& x, __m256& y,
+                                                        __m256& z) {
+  const __m256i index3 = _mm256_add_epi32(_mm256_add_epi32(index, index), index);
+  x = gather_axis(p, 0, index3), y = gather_axis(p, 1, index3), z = gather_axis(p, 2, index3);
+}
+
+// glm::dot's order, lane by lane: (x0 x1 + y0 y1) + z0 z1.
+__attribute__((target("avx2"))) inline __m256 dot3(__m256 x0, __m256 y0, __m256 z0, __m256 x1, __m256 y1, __m256 z1) {
+  return _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(x0, x1), _mm256_mul_ps(y0, y1)), _mm256_mul_ps(z0, z1));
 }
 
 // Eight lanes of x, y and z into out[0 .. 8).

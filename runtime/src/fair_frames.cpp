@@ -294,18 +294,8 @@ struct Sums {
 __attribute__((target("avx2"))) inline __m256 add(__m256 a, __m256 b) { return _mm256_add_ps(a, b); }
 __attribute__((target("avx2"))) inline __m256 sub(__m256 a, __m256 b) { return _mm256_sub_ps(a, b); }
 __attribute__((target("avx2"))) inline __m256 mul(__m256 a, __m256 b) { return _mm256_mul_ps(a, b); }
-// glm::dot's order: (x0 x1 + y0 y1) + z0 z1.
-__attribute__((target("avx2"))) inline __m256 dot(__m256 x0, __m256 y0, __m256 z0, __m256 x1, __m256 y1, __m256 z1) {
-  return add(add(mul(x0, x1), mul(y0, y1)), mul(z0, z1));
-}
 __attribute__((target("avx2"))) inline __m256 select(__m256 mask, __m256 a, __m256 b) {
   return _mm256_or_ps(_mm256_and_ps(mask, a), _mm256_andnot_ps(mask, b));
-}
-// The vec3s p[index] as three lanes of x, y and z.
-__attribute__((target("avx2"))) inline void gather3(const glm::vec3* p, __m256i index, __m256& x, __m256& y,
-                                                    __m256& z) {
-  const __m256i index3 = _mm256_add_epi32(_mm256_add_epi32(index, index), index);
-  x = avx2::gather_axis(p, 0, index3), y = avx2::gather_axis(p, 1, index3), z = avx2::gather_axis(p, 2, index3);
 }
 // neighbours[k] where `live`, else `self`.
 __attribute__((target("avx2"))) inline __m256i neighbour(const uint32_t* neighbours, __m256i k, __m256i live,
@@ -330,23 +320,24 @@ __attribute__((target("avx2"))) Frames basis(const glm::vec3* positions, const g
                                              const uint32_t* neighbours, const Rings& r) {
   const __m256 zero = _mm256_setzero_ps(), one = _mm256_set1_ps(1.0f), largest = _mm256_set1_ps(FLT_MAX);
   Frames f;
-  gather3(positions, r.self, f.px, f.py, f.pz);
+  avx2::gather_vec3(positions, r.self, f.px, f.py, f.pz);
   __m256 sx, sy, sz;
-  gather3(skeletal, r.self, sx, sy, sz);
+  avx2::gather_vec3(skeletal, r.self, sx, sy, sz);
   __m256 nx = sub(f.px, sx), ny = sub(f.py, sy), nz = sub(f.pz, sz);
-  const __m256 n_length = _mm256_sqrt_ps(dot(nx, ny, nz, nx, ny, nz));
+  const __m256 n_length = _mm256_sqrt_ps(avx2::dot3(nx, ny, nz, nx, ny, nz));
   const __m256i has_ring = _mm256_cmpgt_epi32(r.degree, _mm256_setzero_si256());
   __m256 main = _mm256_and_ps(_mm256_cmp_ps(n_length, zero, _CMP_GT_OQ), _mm256_cmp_ps(n_length, largest, _CMP_LE_OQ));
   main = _mm256_and_ps(main, _mm256_castsi256_ps(has_ring));
   const __m256 n_inverse = _mm256_div_ps(one, n_length);
   nx = mul(nx, n_inverse), ny = mul(ny, n_inverse), nz = mul(nz, n_inverse);
   __m256 qx, qy, qz;
-  gather3(positions, neighbour(neighbours, r.begin, has_ring, r.self), qx, qy, qz);
+  avx2::gather_vec3(positions, neighbour(neighbours, r.begin, has_ring, r.self), qx, qy, qz);
   const __m256 ex = sub(qx, f.px), ey = sub(qy, f.py), ez = sub(qz, f.pz);
-  const __m256 e_dot_n = dot(ex, ey, ez, nx, ny, nz);
+  const __m256 e_dot_n = avx2::dot3(ex, ey, ez, nx, ny, nz);
   __m256 tx = sub(ex, mul(e_dot_n, nx)), ty = sub(ey, mul(e_dot_n, ny)), tz = sub(ez, mul(e_dot_n, nz));
-  const __m256 t2 = dot(tx, ty, tz, tx, ty, tz);
-  const __m256 not_parallel = _mm256_cmp_ps(t2, mul(_mm256_set1_ps(1e-12f), dot(ex, ey, ez, ex, ey, ez)), _CMP_GT_OQ);
+  const __m256 t2 = avx2::dot3(tx, ty, tz, tx, ty, tz);
+  const __m256 not_parallel =
+      _mm256_cmp_ps(t2, mul(_mm256_set1_ps(1e-12f), avx2::dot3(ex, ey, ez, ex, ey, ez)), _CMP_GT_OQ);
   main = _mm256_and_ps(main, _mm256_and_ps(not_parallel, _mm256_cmp_ps(t2, largest, _CMP_LE_OQ)));
   const __m256 t_inverse = _mm256_div_ps(one, _mm256_sqrt_ps(t2));
   tx = mul(tx, t_inverse), ty = mul(ty, t_inverse), tz = mul(tz, t_inverse);
@@ -367,16 +358,16 @@ __attribute__((target("avx2"))) Sums ring_sums(const glm::vec3* positions, const
     const __m256 live = _mm256_castsi256_ps(live_i);
     const __m256i k = _mm256_add_epi32(r.begin, _mm256_set1_epi32(static_cast<int>(j)));
     __m256 qx, qy, qz;
-    gather3(positions, neighbour(neighbours, k, live_i, r.self), qx, qy, qz);
+    avx2::gather_vec3(positions, neighbour(neighbours, k, live_i, r.self), qx, qy, qz);
     const __m256i k2 = _mm256_add_epi32(k, k);
     const __m256 then_x = _mm256_mask_i32gather_ps(zero, then, k2, live, 4);
     const __m256 then_y = _mm256_mask_i32gather_ps(zero, then + 1, k2, live, 4);
     const __m256 dx = sub(qx, f.px), dy = sub(qy, f.py), dz = sub(qz, f.pz);
-    const __m256 now_x = dot(dx, dy, dz, f.tx, f.ty, f.tz), now_y = dot(dx, dy, dz, f.bx, f.by, f.bz);
+    const __m256 now_x = avx2::dot3(dx, dy, dz, f.tx, f.ty, f.tz), now_y = avx2::dot3(dx, dy, dz, f.bx, f.by, f.bz);
     s.sum_x = add(s.sum_x, _mm256_and_ps(live, qx));
     s.sum_y = add(s.sum_y, _mm256_and_ps(live, qy));
     s.sum_z = add(s.sum_z, _mm256_and_ps(live, qz));
-    s.edge_sum = add(s.edge_sum, _mm256_and_ps(live, _mm256_sqrt_ps(dot(dx, dy, dz, dx, dy, dz))));
+    s.edge_sum = add(s.edge_sum, _mm256_and_ps(live, _mm256_sqrt_ps(avx2::dot3(dx, dy, dz, dx, dy, dz))));
     s.dot_sum = add(s.dot_sum, _mm256_and_ps(live, add(mul(then_x, now_x), mul(then_y, now_y))));
     s.cross_sum = add(s.cross_sum, _mm256_and_ps(live, sub(mul(then_x, now_y), mul(then_y, now_x))));
   }

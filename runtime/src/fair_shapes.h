@@ -57,11 +57,6 @@ inline uint32_t record_shapes_portable(const ShapeRecord& r, uint32_t first, uin
 #if defined(SKELFORM_HAS_AVX2_KERNELS)
 namespace detail {
 
-// Eight vertices' 3-vectors p[v + lane] as x, y and z lanes (index3 = 3·(v + lane)).
-__attribute__((target("avx2"))) inline void gather_vec3(const glm::vec3* p, __m256i index3, __m256 (&out)[3]) {
-  for (int axis = 0; axis < 3; ++axis) out[axis] = avx2::gather_axis(p, axis, index3);
-}
-
 // Eight vertices' frames as nine lanes, column-major as glm stores them (index9 = 9·(v + lane)).
 __attribute__((target("avx2"))) inline void gather_mat3(const glm::mat3* frames, __m256i index9, __m256 (&out)[9]) {
   static_assert(sizeof(glm::mat3) == 9 * sizeof(float), "mat3 is nine packed floats");
@@ -79,14 +74,12 @@ __attribute__((target("avx2"))) inline void transposed_times(const __m256 (&m)[9
 // glm::length(a − b) lane by lane: sqrt((x² + y²) + z²).
 __attribute__((target("avx2"))) inline __m256 distance(const __m256 (&a)[3], const __m256 (&b)[3]) {
   const __m256 x = _mm256_sub_ps(a[0], b[0]), y = _mm256_sub_ps(a[1], b[1]), z = _mm256_sub_ps(a[2], b[2]);
-  return _mm256_sqrt_ps(_mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(x, x), _mm256_mul_ps(y, y)), _mm256_mul_ps(z, z)));
+  return _mm256_sqrt_ps(avx2::dot3(x, y, z, x, y, z));
 }
 
-// The lanes' vertex indices times `k`.
-__attribute__((target("avx2"))) inline __m256i lane_indices(uint32_t v, int k) {
-  const __m256i vertex =
-      _mm256_add_epi32(_mm256_set1_epi32(static_cast<int>(v)), _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7));
-  return _mm256_mullo_epi32(vertex, _mm256_set1_epi32(k));
+// The lanes' vertex indices v .. v + 7.
+__attribute__((target("avx2"))) inline __m256i lane_vertices(uint32_t v) {
+  return _mm256_add_epi32(_mm256_set1_epi32(static_cast<int>(v)), _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7));
 }
 
 // record_shapes_portable over vertices [0, 8·⌊end/8⌋); returns where it stopped and adds the
@@ -103,16 +96,16 @@ __attribute__((target("avx2"))) inline uint32_t record_shapes_avx2(const ShapeRe
     const __m256 ring = _mm256_castsi256_ps(_mm256_xor_si256(_mm256_cmpeq_epi32(begin, stop), _mm256_set1_epi32(-1)));
     const int rings = _mm256_movemask_ps(ring);
     if (rings == 0) continue;
-    const __m256i index3 = lane_indices(v, 3), index9 = lane_indices(v, 9);
+    const __m256i vertex = lane_vertices(v), index9 = _mm256_mullo_epi32(vertex, _mm256_set1_epi32(9));
     // std::max(e, 1e-30): (e < 1e-30) ? 1e-30 : e, which _mm256_max_ps(1e-30, e) is (NaN: e).
     const __m256 edge = _mm256_max_ps(tiny, _mm256_loadu_ps(r.mean_edge + v));
     __m256 frame[9], umbrella[3], turned[3], shape[3], old[3], rest[3];
     gather_mat3(r.frames, index9, frame);
-    gather_vec3(r.umbrella, index3, umbrella);
+    avx2::gather_vec3(r.umbrella, vertex, umbrella[0], umbrella[1], umbrella[2]);
     transposed_times(frame, umbrella, turned);
     for (int axis = 0; axis < 3; ++axis) shape[axis] = _mm256_div_ps(turned[axis], edge);
-    gather_vec3(r.shape, index3, old);
-    gather_vec3(r.rest_umbrella, index3, rest);
+    avx2::gather_vec3(r.shape, vertex, old[0], old[1], old[2]);
+    avx2::gather_vec3(r.rest_umbrella, vertex, rest[0], rest[1], rest[2]);
     for (__m256& axis : rest) axis = _mm256_div_ps(axis, edge);
     const __m256 change = distance(shape, old);
     const int within = _mm256_movemask_ps(_mm256_cmp_ps(change, limit, _CMP_LE_OQ));
